@@ -1,0 +1,97 @@
+"""Inverse kinematics for the gripper with random restarts, and the lift height it needs.
+
+PyBullet's damped-least-squares IK is local, so each attempt starts from a random arm
+configuration (drawn from the passed generator) and is accepted only if forward kinematics
+puts the grasp point within :data:`POSITION_TOLERANCE` and the orientation within
+:data:`ANGLE_TOLERANCE` of the target and every joint is inside its limits.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+from stalm.geometry.transforms import Pose3, angle_between_rotations, matrix_from_quat
+from stalm.world import robot as robot_model
+from stalm.world.scene import ARM_JOINTS, GRASP_LINK, Sim
+
+POSITION_TOLERANCE = 0.005
+ANGLE_TOLERANCE = 0.03
+SHOULDER_ABOVE_MOUNT = 0.333
+REFINEMENTS = 3
+"""IK calls per restart, each starting where the previous ended (PyBullet's IK is one
+damped-least-squares run and often stops short of the target)."""
+NOMINAL_ARM = (0.0, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785)
+"""First seed: the arm reaching forward at mid height, where most grasps lie."""
+
+
+@dataclass(frozen=True)
+class IKSolution:
+    lift: float
+    arm: tuple[float, ...]
+
+
+def lift_candidates(target_z: float) -> tuple[float, ...]:
+    """Lift heights to try for a target height: shoulder near the target first."""
+    low, high = robot_model.LIFT_RANGE
+    preferred = target_z - SHOULDER_ABOVE_MOUNT + 0.05
+    values = []
+    for offset in (0.0, 0.15, -0.15, 0.3):
+        value = round(min(high, max(low, preferred + offset)), 3)
+        if value not in values:
+            values.append(value)
+    return tuple(values)
+
+
+def solve_ik(
+    sim: Sim,
+    base: tuple[float, float, float],
+    target: Pose3,
+    rng: np.random.Generator,
+    attempts: int = 6,
+) -> IKSolution | None:
+    """An arm configuration putting the grasp point at ``target`` from ``base``, or None."""
+    c = sim.client
+    arm = sim.bodies.arm
+    lows = [lo for lo, _ in robot_model.ARM_JOINT_LIMITS]
+    highs = [hi for _, hi in robot_model.ARM_JOINT_LIMITS]
+    ranges = [hi - lo for lo, hi in robot_model.ARM_JOINT_LIMITS]
+    # null-space lists cover every movable joint of the URDF (7 arm + 2 fingers)
+    lows_all = [*lows, 0.0, 0.0]
+    highs_all = [*highs, 0.04, 0.04]
+    ranges_all = [*ranges, 0.04, 0.04]
+    target_rot = matrix_from_quat(target[1])
+    candidates = lift_candidates(target[0][2])
+    held, held_offset = sim.held, sim.held_yaw_offset
+    sim.attach(None)
+    try:
+        for attempt in range(attempts):
+            lift = candidates[attempt % len(candidates)]
+            seed = NOMINAL_ARM if attempt == 0 else tuple(float(v) for v in rng.uniform(lows, highs))
+            q = seed
+            for _ in range(REFINEMENTS):
+                sim.set_arm(base, lift, q)
+                rest = [*seed, robot_model.FINGER_OPENING, robot_model.FINGER_OPENING]
+                solution = p.calculateInverseKinematics(
+                    arm, GRASP_LINK, list(target[0]), list(target[1]),
+                    lowerLimits=lows_all, upperLimits=highs_all, jointRanges=ranges_all,
+                    restPoses=rest, maxNumIterations=60, residualThreshold=1e-5,
+                    physicsClientId=c,
+                )
+                q = tuple(
+                    min(hi, max(lo, float(v)))
+                    for v, lo, hi in zip(solution[: len(ARM_JOINTS)], lows, highs, strict=True)
+                )
+                sim.set_arm(base, lift, q)
+                pos, orn = sim.gripper_pose()
+                if (
+                    math.dist(pos, target[0]) <= POSITION_TOLERANCE
+                    and angle_between_rotations(matrix_from_quat(orn), target_rot) <= ANGLE_TOLERANCE
+                ):
+                    return IKSolution(lift, q)
+        return None
+    finally:
+        sim.attach(held, held_offset)

@@ -1,0 +1,243 @@
+"""A probabilistic roadmap over the floor for the robot's footprint, one per door setting.
+
+Nodes are collision-free (x, y) positions of a footprint proxy (a cylinder covering the base
+and the folded arm); edges are straight segments checked at :attr:`RoadmapSettings.resolution`
+against walls, regions and doors. Movable objects are not in the roadmap: base paths are
+checked against them when queried (see :mod:`stalm.motion.base_motion`). Standing poses of
+regions and doors and the robot's start are added as anchor nodes, so every query in the
+domain is between nodes. A roadmap depends only on the static scene, so it is built once and
+cached on disk under a hash of that content.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import heapq
+import json
+import math
+import os
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import pybullet as p
+
+from stalm.world import robot as robot_model
+from stalm.world.scene import Sim
+from stalm.world.spec import ProblemSpec
+
+ROADMAP_FORMAT = 2
+"""Bump when the roadmap construction changes, so stale cache files are not reused."""
+
+
+@dataclass(frozen=True)
+class RoadmapSettings:
+    """PRM parameters; all are part of the cache key."""
+
+    samples: int = 350
+    neighbours: int = 10
+    max_edge: float = 2.5
+    resolution: float = 0.05
+    proxy_radius: float = robot_model.BASE_RADIUS + 0.02
+    proxy_height: float = 1.45
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class Roadmap:
+    """Nodes (N x 2), undirected edges as an adjacency list, and named anchor nodes."""
+
+    nodes: np.ndarray
+    adjacency: tuple[tuple[int, ...], ...]
+    anchors: tuple[tuple[float, float], ...]
+    open_doors: frozenset[str]
+
+    def anchor_index(self, x: float, y: float) -> int | None:
+        """Node index of an anchor at (x, y), if (x, y) is one."""
+        for index, (ax, ay) in enumerate(self.anchors):
+            if abs(ax - x) < 1e-6 and abs(ay - y) < 1e-6:
+                return index
+        return None
+
+    def edge_length(self, a: int, b: int) -> float:
+        return float(np.linalg.norm(self.nodes[a] - self.nodes[b]))
+
+    def shortest_path(self, start: int, goal: int, blocked: Iterable[tuple[int, int]] = ()) -> list[int] | None:
+        """A* over the roadmap avoiding ``blocked`` edges (either direction)."""
+        banned = {tuple(sorted(edge)) for edge in blocked}
+        goal_xy = self.nodes[goal]
+        frontier: list[tuple[float, float, int]] = [(0.0, 0.0, start)]
+        came_from: dict[int, int] = {}
+        cost = {start: 0.0}
+        while frontier:
+            _, so_far, node = heapq.heappop(frontier)
+            if node == goal:
+                path = [node]
+                while node in came_from:
+                    node = came_from[node]
+                    path.append(node)
+                return path[::-1]
+            if so_far > cost.get(node, math.inf):
+                continue
+            for nxt in self.adjacency[node]:
+                if (min(node, nxt), max(node, nxt)) in banned:
+                    continue
+                new_cost = so_far + self.edge_length(node, nxt)
+                if new_cost < cost.get(nxt, math.inf) - 1e-12:
+                    cost[nxt] = new_cost
+                    came_from[nxt] = node
+                    heuristic = float(np.linalg.norm(self.nodes[nxt] - goal_xy))
+                    heapq.heappush(frontier, (new_cost + heuristic, new_cost, nxt))
+        return None
+
+
+def anchor_poses(problem: ProblemSpec) -> list[tuple[float, float, float]]:
+    """Every pose the robot stands at: its start and each region's and door's standing pose."""
+    poses = [problem.robot.base]
+    poses.extend(region.base_pose for region in problem.regions)
+    for door in problem.doors:
+        poses.extend(door.base_poses)
+    return [tuple(pose) for pose in poses]  # type: ignore[misc]
+
+
+def static_scene_key(problem: ProblemSpec, open_doors: frozenset[str], settings: RoadmapSettings) -> str:
+    """Content hash of everything a roadmap depends on."""
+    content = {
+        "format": ROADMAP_FORMAT,
+        "floor": problem.floor,
+        "walls": [w.model_dump() for w in problem.walls],
+        "regions": [r.model_dump() for r in problem.regions],
+        "doors": [d.model_dump() for d in problem.doors],
+        "anchors": anchor_poses(problem),
+        "open_doors": sorted(open_doors),
+        "settings": asdict(settings),
+    }
+    return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def cache_dir() -> Path:
+    """Where roadmaps (and other derived data) are cached: ``$STALM_CACHE_DIR`` or ~/.cache."""
+    env = os.environ.get("STALM_CACHE_DIR")
+    base = Path(env) if env else Path.home() / ".cache" / "stalm"
+    return base / "roadmaps"
+
+
+class FootprintChecker:
+    """Collision checks of the footprint proxy against the static scene (and doors)."""
+
+    def __init__(self, sim: Sim, settings: RoadmapSettings) -> None:
+        self.sim = sim
+        c = sim.client
+        col = p.createCollisionShape(
+            p.GEOM_CYLINDER, radius=settings.proxy_radius, height=settings.proxy_height,
+            collisionFramePosition=[0, 0, settings.proxy_height / 2 + 0.01], physicsClientId=c,
+        )
+        self.body = int(p.createMultiBody(1.0, col, -1, [0, 0, -50.0], physicsClientId=c))
+        self._ignore = [sim.bodies.base, sim.bodies.arm, *sim.bodies.objects.values()]
+
+    def free(self, x: float, y: float) -> bool:
+        p.resetBasePositionAndOrientation(self.body, [x, y, 0.0], [0, 0, 0, 1], physicsClientId=self.sim.client)
+        return not self.sim.contacts_of([self.body], self._ignore)
+
+    def segment_free(self, a: Sequence[float], b: Sequence[float], resolution: float) -> bool:
+        length = math.dist(a, b)
+        steps = max(1, math.ceil(length / resolution))
+        for i in range(1, steps):
+            t = i / steps
+            if not self.free(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])):
+                return False
+        return True
+
+    def remove(self) -> None:
+        p.removeBody(self.body, physicsClientId=self.sim.client)
+
+
+def build_roadmap(
+    sim: Sim,
+    open_doors: frozenset[str],
+    settings: RoadmapSettings,
+    progress: Callable[[str], None] | None = None,
+) -> Roadmap:
+    """Sample and connect a roadmap with the doors in ``open_doors`` open, the rest closed."""
+    problem = sim.problem
+    for door in problem.doors:
+        sim.set_door(door.name, door.name in open_doors)
+    checker = FootprintChecker(sim, settings)
+    try:
+        rng = np.random.default_rng(settings.seed)
+        (x0, y0), (x1, y1) = problem.floor
+        margin = settings.proxy_radius
+        anchors = [(pose[0], pose[1]) for pose in anchor_poses(problem)]
+        unique_anchors: list[tuple[float, float]] = []
+        for anchor in anchors:
+            if anchor not in unique_anchors:
+                unique_anchors.append(anchor)
+        points: list[tuple[float, float]] = list(unique_anchors)
+        attempts = 0
+        while len(points) < len(unique_anchors) + settings.samples and attempts < settings.samples * 20:
+            attempts += 1
+            x = float(rng.uniform(x0 + margin, x1 - margin))
+            y = float(rng.uniform(y0 + margin, y1 - margin))
+            if checker.free(x, y):
+                points.append((x, y))
+        nodes = np.array(points, dtype=float)
+        adjacency: list[set[int]] = [set() for _ in points]
+        for i in range(len(points)):
+            distances = np.linalg.norm(nodes - nodes[i], axis=1)
+            order = np.argsort(distances, kind="stable")
+            connected = 0
+            for j in order[1:]:
+                if connected >= settings.neighbours or distances[j] > settings.max_edge:
+                    break
+                j = int(j)
+                if j in adjacency[i]:
+                    connected += 1
+                    continue
+                if checker.segment_free(points[i], points[j], settings.resolution):
+                    adjacency[i].add(j)
+                    adjacency[j].add(i)
+                    connected += 1
+        if progress:
+            progress(f"roadmap: {len(points)} nodes, {sum(len(a) for a in adjacency) // 2} edges")
+        return Roadmap(
+            nodes=nodes,
+            adjacency=tuple(tuple(sorted(a)) for a in adjacency),
+            anchors=tuple(unique_anchors),
+            open_doors=open_doors,
+        )
+    finally:
+        checker.remove()
+
+
+def load_or_build_roadmap(sim: Sim, open_doors: frozenset[str], settings: RoadmapSettings) -> Roadmap:
+    """The roadmap for this static scene and door setting, from the disk cache if present."""
+    key = static_scene_key(sim.problem, open_doors, settings)
+    path = cache_dir() / f"{key}.npz"
+    if path.exists():
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                nodes = data["nodes"]
+                edges = data["edges"]
+                anchors = data["anchors"]
+            adjacency: list[list[int]] = [[] for _ in range(len(nodes))]
+            for a, b in edges:
+                adjacency[int(a)].append(int(b))
+                adjacency[int(b)].append(int(a))
+            return Roadmap(
+                nodes=nodes,
+                adjacency=tuple(tuple(sorted(a)) for a in adjacency),
+                anchors=tuple((float(x), float(y)) for x, y in anchors),
+                open_doors=open_doors,
+            )
+        except (OSError, KeyError, ValueError):
+            pass  # a damaged cache file is rebuilt below
+    roadmap = build_roadmap(sim, open_doors, settings)
+    edges = np.array(
+        [(i, j) for i, nbrs in enumerate(roadmap.adjacency) for j in nbrs if i < j], dtype=np.int64
+    ).reshape(-1, 2)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
+    np.savez(tmp, nodes=roadmap.nodes, edges=edges, anchors=np.array(roadmap.anchors))
+    os.replace(tmp, path)
+    return roadmap

@@ -1,0 +1,38 @@
+"""Grounded predicates (literals) as plain immutable values.
+
+A literal is a predicate name with its arguments, e.g. ``AtPosition(coke, on, counter2)``.
+The prompt prints literals as the paper's Python-style tuples, and the PDDL writer prints them
+as s-expressions; both read the same value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+PREDICATE_NAMES: tuple[str, ...] = (
+    "HandAvailable",
+    "RobotHolding",
+    "AtPosition",
+    "IsClosed",
+    "PickOccludedBy",
+    "PlaceOccludedBy",
+)
+OCCLUSION_PREDICATES: frozenset[str] = frozenset({"PickOccludedBy", "PlaceOccludedBy"})
+
+
+@dataclass(frozen=True, order=True)
+class GroundLiteral:
+    """A predicate applied to object names; hashable so sets of literals describe a state."""
+
+    name: str
+    args: tuple[str, ...] = ()
+
+    def as_tuple(self) -> tuple[str, ...]:
+        """The paper's prompt form: ``('AtPosition', 'coke', 'on', 'counter2')``.
+
+        Nullary predicates print as ``('HandAvailable', '')`` exactly as in Figure 13.
+        """
+        return (self.name, *self.args) if self.args else (self.name, "")
+
+    def __str__(self) -> str:
+        return f"{self.name}({', '.join(self.args)})"

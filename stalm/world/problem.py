@@ -1,0 +1,102 @@
+"""A loaded problem: its validated spec, initial State and goal; and where problem files live.
+
+Problems are found by name (``P5``, case-insensitive) in the directory named by the
+``STALM_PROBLEMS_DIR`` environment variable, else the repository's ``problems/``; a path to a
+YAML file is accepted anywhere a name is.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+from stalm.errors import StalmError
+from stalm.geometry.directions import Direction
+from stalm.geometry.transforms import se2_to_world, wrap_angle
+from stalm.world import robot as robot_model
+from stalm.world.spec import ProblemSpec, load_problem_file
+from stalm.world.state import ObjectPose, RobotConf, State
+
+
+@dataclass(frozen=True)
+class GoalAtom:
+    """One goal conjunct AtPosition(obj, direction, ref)."""
+
+    obj: str
+    direction: Direction
+    ref: str
+
+    def __str__(self) -> str:
+        return f"AtPosition({self.obj}, {self.direction}, {self.ref})"
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A problem instance (O, R, D, s0, G, h) of the paper's §3.1."""
+
+    spec: ProblemSpec
+    source: str
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def horizon(self) -> int:
+        return self.spec.horizon
+
+    @cached_property
+    def goal(self) -> tuple[GoalAtom, ...]:
+        return tuple(GoalAtom(g.obj, g.direction, g.ref) for g in self.spec.goal)
+
+    @cached_property
+    def initial_state(self) -> State:
+        poses = []
+        for obj in self.spec.objects:
+            region = self.spec.region(obj.on)
+            x, y = se2_to_world((*region.center, region.yaw), *obj.at)
+            poses.append(
+                (obj.name, ObjectPose.make(x, y, region.top, wrap_angle(region.yaw + obj.yaw)))
+            )
+        return State(
+            poses=tuple(sorted(poses)),
+            open_doors=frozenset(),
+            robot=RobotConf.make(self.spec.robot.base, robot_model.CARRY_LIFT, robot_model.CARRY_ARM),
+        )
+
+
+def problems_dir() -> Path:
+    """Where named problems are looked up."""
+    env = os.environ.get("STALM_PROBLEMS_DIR")
+    if env:
+        return Path(env)
+    return Path(__file__).resolve().parents[2] / "problems"
+
+
+def available_problems() -> list[Path]:
+    return sorted(
+        path for path in problems_dir().glob("*.yaml") if not path.name.startswith("_")
+    )
+
+
+def load_problem(name_or_path: str | Path) -> Problem:
+    """Load a problem by name (``P5``) or by the path of a YAML file."""
+    path = Path(name_or_path)
+    if path.suffix in (".yaml", ".yml") or path.exists():
+        return Problem(load_problem_file(path), str(path))
+    wanted = str(name_or_path).lower()
+    for candidate in available_problems():
+        if candidate.stem.lower() == wanted:
+            return Problem(load_problem_file(candidate), str(candidate))
+    names = ", ".join(c.stem.upper() for c in available_problems()) or "none"
+    raise StalmError(
+        f"unknown problem '{name_or_path}': no file {wanted}.yaml in {problems_dir()} "
+        f"(available: {names})"
+    )
+
+
+def angle_close(a: float, b: float, tol: float = 1e-6) -> bool:
+    return abs(math.remainder(a - b, math.tau)) < tol

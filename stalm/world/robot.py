@@ -1,0 +1,54 @@
+"""The mobile manipulator: a holonomic disc base with a vertical lift carrying a Franka Panda.
+
+The base moves kinematically in (x, y, yaw). The lift is the arm mount's height above the
+floor, chosen per grasp by IK (so the same robot reaches counters at ~1 m and the shelf), as
+the PR2's torso did in the paper. The gripper stays open; grasping is kinematic.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+BASE_RADIUS = 0.3
+"""Radius of the base disc (m); also the footprint the roadmap plans for."""
+BASE_HEIGHT = 0.35
+ARM_MOUNT_FORWARD = 0.15
+"""The arm's mount sits this far ahead of the base centre, toward the region it faces."""
+LIFT_RANGE = (0.55, 1.45)
+"""Heights of the arm's mount above the floor that the lift can reach (m)."""
+CARRY_LIFT = 0.75
+"""Lift height while driving (keeps the arm below the shelf board and above tables' edges)."""
+CARRY_ARM = (0.0, -1.7, 0.0, -3.0, 0.0, 1.5, 0.785)
+"""Arm joints while driving: the hand folded back over the base, inside the footprint."""
+ARM_JOINT_LIMITS = (
+    (-2.8973, 2.8973),
+    (-1.7628, 1.7628),
+    (-2.8973, 2.8973),
+    (-3.0718, -0.0698),
+    (-2.8973, 2.8973),
+    (-0.0175, 3.7525),
+    (-2.8973, 2.8973),
+)
+FINGER_OPENING = 0.04
+"""Each finger's opening (m): the gripper stays fully open; grasping is kinematic."""
+
+
+@dataclass(frozen=True)
+class ArmMount:
+    """Where the arm's base frame sits for a base pose and lift height."""
+
+    x: float
+    y: float
+    z: float
+    yaw: float
+
+
+def arm_mount(base: tuple[float, float, float], lift: float) -> ArmMount:
+    """The arm base frame for a base pose (x, y, yaw) and a lift height."""
+    x, y, yaw = base
+    return ArmMount(
+        x + ARM_MOUNT_FORWARD * math.cos(yaw), y + ARM_MOUNT_FORWARD * math.sin(yaw), lift, yaw
+    )
+
+

@@ -1,0 +1,396 @@
+"""The PyBullet scene built from a problem spec, and the queries the planner makes of it.
+
+One :class:`Sim` owns one DIRECT client. The world is set kinematically from a
+:class:`~stalm.world.state.State` and queried; physics is never stepped. Movable objects and
+the robot are given mass so Bullet's broadphase reports their contacts with the static scene
+(static-static pairs are never tested), which makes one ``performCollisionDetection`` call
+answer "what touches the robot?" for the whole world.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+import pybullet as p
+import pybullet_data
+
+from stalm.geometry.transforms import Pose3, compose, quat_yaw, yaw_quat
+from stalm.world import robot as robot_model
+from stalm.world.spec import GRILL_HANDLE_REACH, DoorSpec, ObjectSpec, ProblemSpec, RegionSpec
+from stalm.world.state import Grasp, ObjectPose, RobotConf, State
+
+PENETRATION_TOLERANCE = 1e-3
+"""Contacts shallower than this (m) are touching, not colliding: objects resting on a surface
+or standing side by side are legal."""
+
+GRASP_LINK = 11
+"""The Panda's ``panda_grasptarget`` link: the point between the fingertips."""
+ARM_JOINTS = tuple(range(7))
+FINGER_JOINTS = (9, 10)
+
+
+@dataclass
+class Bodies:
+    """PyBullet body ids by name and by role."""
+
+    walls: dict[str, int] = field(default_factory=dict)
+    regions: dict[str, int] = field(default_factory=dict)
+    doors: dict[str, int] = field(default_factory=dict)
+    objects: dict[str, int] = field(default_factory=dict)
+    base: int = -1
+    arm: int = -1
+    floor: int = -1
+
+    def name_of(self, body: int) -> str:
+        for group in (self.walls, self.regions, self.doors, self.objects):
+            for name, bid in group.items():
+                if bid == body:
+                    return name
+        if body in (self.base, self.arm):
+            return "robot"
+        return f"body{body}"
+
+
+class Sim:
+    """A PyBullet DIRECT client holding one problem's scene.
+
+    The scene's static part (walls, regions) never moves; doors, objects and the robot are set
+    from a State with :meth:`set_state`. Counters of collision checks are kept for benchmarks.
+    """
+
+    def __init__(self, problem: ProblemSpec) -> None:
+        self.problem = problem
+        self.client = p.connect(p.DIRECT)
+        self.bodies = Bodies()
+        self.collision_checks = 0
+        self._held: Grasp | None = None
+        self._held_yaw_offset = 0.0
+        self._robot = RobotConf.make((0.0, 0.0, 0.0), robot_model.CARRY_LIFT, robot_model.CARRY_ARM)
+        self._build()
+        self._static_ids = frozenset(self.bodies.walls.values()) | frozenset(
+            self.bodies.regions.values()
+        )
+        self._object_by_body = {bid: name for name, bid in self.bodies.objects.items()}
+        self._door_by_body = {bid: name for name, bid in self.bodies.doors.items()}
+
+    # ------------------------------------------------------------------ building
+    def _build(self) -> None:
+        c = self.client
+        p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
+        (x0, y0), (x1, y1) = self.problem.floor
+        floor_visual = p.createVisualShape(
+            p.GEOM_BOX,
+            halfExtents=[(x1 - x0) / 2, (y1 - y0) / 2, 0.005],
+            rgbaColor=[0.86, 0.84, 0.80, 1],
+            physicsClientId=c,
+        )
+        self.bodies.floor = p.createMultiBody(
+            0, -1, floor_visual, [(x0 + x1) / 2, (y0 + y1) / 2, -0.005], physicsClientId=c
+        )
+        for wall in self.problem.walls:
+            self.bodies.walls[wall.name] = self._box(
+                [s / 2 for s in wall.size], wall.center, wall.yaw, wall.color
+            )
+        for region in self.problem.regions:
+            self.bodies.regions[region.name] = self._region_body(region)
+        for door in self.problem.doors:
+            self.bodies.doors[door.name] = self._door_body(door)
+        for obj in self.problem.objects:
+            self.bodies.objects[obj.name] = self._object_body(obj)
+        self._build_robot()
+
+    def _box(
+        self,
+        half: Sequence[float],
+        center: Sequence[float],
+        yaw: float,
+        color: Sequence[float],
+        mass: float = 0.0,
+    ) -> int:
+        c = self.client
+        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half), physicsClientId=c)
+        vis = p.createVisualShape(
+            p.GEOM_BOX, halfExtents=list(half), rgbaColor=list(color), physicsClientId=c
+        )
+        return int(
+            p.createMultiBody(mass, col, vis, list(center), yaw_quat(yaw), physicsClientId=c)
+        )
+
+    def _region_body(self, region: RegionSpec) -> int:
+        thickness = region.thickness if region.thickness is not None else region.top
+        half = (region.size[0] / 2, region.size[1] / 2, thickness / 2)
+        center = (region.center[0], region.center[1], region.top - thickness / 2)
+        return self._box(half, center, region.yaw, region.color)
+
+    def _door_body(self, door: DoorSpec) -> int:
+        """Door frame origin at the hinge on the floor; the panel extends along its +x."""
+        c = self.client
+        panel_half = [door.width / 2, door.thickness / 2, door.height / 2]
+        panel_pos = [door.width / 2, 0.0, door.height / 2]
+        handle_half = [0.02, door.thickness / 2 + 0.05, 0.06]
+        handle_pos = [door.handle_distance, 0.0, door.handle_height]
+        col = p.createCollisionShapeArray(
+            [p.GEOM_BOX, p.GEOM_BOX],
+            halfExtents=[panel_half, handle_half],
+            collisionFramePositions=[panel_pos, handle_pos],
+            physicsClientId=c,
+        )
+        vis = p.createVisualShapeArray(
+            [p.GEOM_BOX, p.GEOM_BOX],
+            halfExtents=[panel_half, handle_half],
+            visualFramePositions=[panel_pos, handle_pos],
+            rgbaColors=[list(door.color), [0.85, 0.75, 0.2, 1.0]],
+            physicsClientId=c,
+        )
+        return int(
+            p.createMultiBody(
+                0, col, vis, [door.hinge[0], door.hinge[1], 0.0], yaw_quat(door.closed_yaw),
+                physicsClientId=c,
+            )
+        )
+
+    def _object_body(self, obj: ObjectSpec) -> int:
+        """Object frame origin at the centre of its bottom face, so z is the support height."""
+        c = self.client
+        color = list(obj.color)
+        if obj.shape == "grill":
+            assert obj.size is not None
+            sx, sy, sz = obj.size
+            body_half = [sx / 2, sy / 2, sz / 2]
+            handle_half = [0.02, GRILL_HANDLE_REACH / 2, 0.02]
+            handle_z = sz * 0.75
+            offsets = [
+                [0.0, 0.0, sz / 2],
+                [0.0, sy / 2 + GRILL_HANDLE_REACH / 2, handle_z],
+                [0.0, -(sy / 2 + GRILL_HANDLE_REACH / 2), handle_z],
+            ]
+            halves = [body_half, handle_half, handle_half]
+            col = p.createCollisionShapeArray(
+                [p.GEOM_BOX] * 3, halfExtents=halves, collisionFramePositions=offsets,
+                physicsClientId=c,
+            )
+            vis = p.createVisualShapeArray(
+                [p.GEOM_BOX] * 3, halfExtents=halves, visualFramePositions=offsets,
+                rgbaColors=[color, [0.15, 0.15, 0.15, 1], [0.15, 0.15, 0.15, 1]],
+                physicsClientId=c,
+            )
+        else:
+            assert obj.radius is not None and obj.height is not None
+            col = p.createCollisionShape(
+                p.GEOM_CYLINDER, radius=obj.radius, height=obj.height,
+                collisionFramePosition=[0, 0, obj.height / 2], physicsClientId=c,
+            )
+            vis = p.createVisualShape(
+                p.GEOM_CYLINDER, radius=obj.radius, length=obj.height, rgbaColor=color,
+                visualFramePosition=[0, 0, obj.height / 2], physicsClientId=c,
+            )
+        return int(p.createMultiBody(0.1, col, vis, [0, 0, -10.0], physicsClientId=c))
+
+    def _build_robot(self) -> None:
+        c = self.client
+        col = p.createCollisionShape(
+            p.GEOM_CYLINDER, radius=robot_model.BASE_RADIUS, height=robot_model.BASE_HEIGHT,
+            collisionFramePosition=[0, 0, robot_model.BASE_HEIGHT / 2], physicsClientId=c,
+        )
+        vis = p.createVisualShapeArray(
+            [p.GEOM_CYLINDER, p.GEOM_BOX],
+            radii=[robot_model.BASE_RADIUS, 0.0],
+            lengths=[robot_model.BASE_HEIGHT, 0.0],
+            halfExtents=[[0, 0, 0], [0.06, 0.06, 0.5]],
+            visualFramePositions=[
+                [0, 0, robot_model.BASE_HEIGHT / 2],
+                [robot_model.ARM_MOUNT_FORWARD, 0, 0.5],
+            ],
+            rgbaColors=[[0.25, 0.25, 0.3, 1], [0.5, 0.5, 0.55, 1]],
+            physicsClientId=c,
+        )
+        self.bodies.base = int(p.createMultiBody(5.0, col, vis, [0, 0, 0], physicsClientId=c))
+        self.bodies.arm = int(
+            p.loadURDF("franka_panda/panda.urdf", [0, 0, 1], useFixedBase=True, physicsClientId=c)
+        )
+        for link in range(-1, p.getNumJoints(self.bodies.arm, physicsClientId=c)):
+            p.setCollisionFilterPair(
+                self.bodies.arm, self.bodies.base, link, -1, 0, physicsClientId=c
+            )
+        for joint in FINGER_JOINTS:
+            p.resetJointState(
+                self.bodies.arm, joint, robot_model.FINGER_OPENING, physicsClientId=c
+            )
+
+    # ------------------------------------------------------------------ state
+    def set_state(self, state: State) -> None:
+        """Place every body as ``state`` says (objects, doors, robot, held object)."""
+        c = self.client
+        for name, pose in state.poses:
+            p.resetBasePositionAndOrientation(
+                self.bodies.objects[name], [pose.x, pose.y, pose.z], yaw_quat(pose.yaw),
+                physicsClientId=c,
+            )
+        for door in self.problem.doors:
+            self.set_door(door.name, state.is_open(door.name))
+        self._held = state.held
+        self._held_yaw_offset = state.held_yaw_offset
+        self.set_robot(state.robot)
+
+    def read_state(self) -> State:
+        """The State the simulator shows now (inverse of :meth:`set_state`)."""
+        c = self.client
+        held = self._held.obj if self._held is not None else None
+        poses = []
+        for name, body in self.bodies.objects.items():
+            if name == held:
+                continue
+            pos, orn = p.getBasePositionAndOrientation(body, physicsClientId=c)
+            poses.append((name, ObjectPose.make(pos[0], pos[1], pos[2], quat_yaw(orn))))
+        open_doors = frozenset(d.name for d in self.problem.doors if self.door_is_open(d.name))
+        return State(
+            poses=tuple(sorted(poses)),
+            open_doors=open_doors,
+            robot=self.read_robot(),
+            held=self._held,
+            held_yaw_offset=self._held_yaw_offset,
+        )
+
+    def set_door(self, name: str, is_open: bool) -> None:
+        door = self.problem.door(name)
+        self.set_door_angle(name, door.open_yaw if is_open else door.closed_yaw)
+
+    def set_door_angle(self, name: str, yaw: float) -> None:
+        door = self.problem.door(name)
+        p.resetBasePositionAndOrientation(
+            self.bodies.doors[name], [door.hinge[0], door.hinge[1], 0.0], yaw_quat(yaw),
+            physicsClientId=self.client,
+        )
+
+    def door_is_open(self, name: str) -> bool:
+        door = self.problem.door(name)
+        _, orn = p.getBasePositionAndOrientation(self.bodies.doors[name], physicsClientId=self.client)
+        yaw = quat_yaw(orn)
+        return abs(math.remainder(yaw - door.open_yaw, math.tau)) < abs(
+            math.remainder(yaw - door.closed_yaw, math.tau)
+        )
+
+    def set_robot(self, conf: RobotConf) -> None:
+        """Place base, lift and arm; the held object (if any) follows the hand."""
+        c = self.client
+        x, y, yaw = conf.base
+        p.resetBasePositionAndOrientation(self.bodies.base, [x, y, 0.0], yaw_quat(yaw), physicsClientId=c)
+        self.set_arm(conf.base, conf.lift, conf.arm)
+        self._robot = conf
+
+    def set_arm(self, base: tuple[float, float, float], lift: float, arm: Sequence[float]) -> None:
+        c = self.client
+        mount = robot_model.arm_mount(base, lift)
+        p.resetBasePositionAndOrientation(
+            self.bodies.arm, [mount.x, mount.y, mount.z], yaw_quat(mount.yaw), physicsClientId=c
+        )
+        for joint, value in zip(ARM_JOINTS, arm, strict=True):
+            p.resetJointState(self.bodies.arm, joint, value, physicsClientId=c)
+        if self._held is not None:
+            self._place_held()
+
+    def set_base_only(self, base: tuple[float, float, float]) -> None:
+        """Move base and arm rigidly to ``base`` keeping lift and joints (for base paths)."""
+        c = self.client
+        x, y, yaw = base
+        p.resetBasePositionAndOrientation(self.bodies.base, [x, y, 0.0], yaw_quat(yaw), physicsClientId=c)
+        mount = robot_model.arm_mount(base, self._robot.lift)
+        p.resetBasePositionAndOrientation(
+            self.bodies.arm, [mount.x, mount.y, mount.z], yaw_quat(mount.yaw), physicsClientId=c
+        )
+        if self._held is not None:
+            self._place_held()
+
+    def read_robot(self) -> RobotConf:
+        c = self.client
+        pos, orn = p.getBasePositionAndOrientation(self.bodies.base, physicsClientId=c)
+        mount_pos, _ = p.getBasePositionAndOrientation(self.bodies.arm, physicsClientId=c)
+        arm = [p.getJointState(self.bodies.arm, j, physicsClientId=c)[0] for j in ARM_JOINTS]
+        return RobotConf.make((pos[0], pos[1], quat_yaw(orn)), mount_pos[2], arm)
+
+    def gripper_pose(self) -> Pose3:
+        """World pose of the grasp point between the fingertips."""
+        state = p.getLinkState(
+            self.bodies.arm, GRASP_LINK, computeForwardKinematics=True, physicsClientId=self.client
+        )
+        pos, orn = state[4], state[5]
+        return (pos[0], pos[1], pos[2]), (orn[0], orn[1], orn[2], orn[3])
+
+    def _place_held(self) -> None:
+        assert self._held is not None
+        pos, orn = compose(self.gripper_pose(), self._held.pose)
+        p.resetBasePositionAndOrientation(
+            self.bodies.objects[self._held.obj], list(pos), list(orn), physicsClientId=self.client
+        )
+
+    def attach(self, grasp: Grasp | None, yaw_offset: float = 0.0) -> None:
+        """Start (or with None, stop) carrying an object at ``grasp``."""
+        self._held = grasp
+        self._held_yaw_offset = yaw_offset
+
+    @property
+    def held(self) -> Grasp | None:
+        return self._held
+
+    @property
+    def held_yaw_offset(self) -> float:
+        return self._held_yaw_offset
+
+    def object_pose(self, name: str) -> Pose3:
+        pos, orn = p.getBasePositionAndOrientation(self.bodies.objects[name], physicsClientId=self.client)
+        return (pos[0], pos[1], pos[2]), (orn[0], orn[1], orn[2], orn[3])
+
+    def place_object(self, name: str, pose: ObjectPose) -> None:
+        p.resetBasePositionAndOrientation(
+            self.bodies.objects[name], [pose.x, pose.y, pose.z], yaw_quat(pose.yaw),
+            physicsClientId=self.client,
+        )
+
+    # ------------------------------------------------------------------ collisions
+    def robot_bodies(self) -> tuple[int, ...]:
+        """The bodies that move with the robot: base, arm and the held object."""
+        if self._held is None:
+            return (self.bodies.base, self.bodies.arm)
+        return (self.bodies.base, self.bodies.arm, self.bodies.objects[self._held.obj])
+
+    def contacts_of(self, bodies: Iterable[int], ignore: Iterable[int] = ()) -> set[int]:
+        """Bodies penetrating any of ``bodies`` now (excluding each other and ``ignore``)."""
+        c = self.client
+        self.collision_checks += 1
+        p.performCollisionDetection(physicsClientId=c)
+        group = set(bodies)
+        skip = group | set(ignore)
+        hits: set[int] = set()
+        for body in group:
+            for contact in p.getContactPoints(bodyA=body, physicsClientId=c):
+                other = contact[2]
+                if other in skip or other in hits:
+                    continue
+                if contact[8] < -PENETRATION_TOLERANCE:
+                    hits.add(other)
+        return hits
+
+    def robot_contacts(self, ignore: Iterable[int] = ()) -> set[int]:
+        """Bodies the robot (with what it holds) penetrates in its current configuration."""
+        return self.contacts_of(self.robot_bodies(), ignore)
+
+    def is_static(self, body: int) -> bool:
+        return body in self._static_ids
+
+    def object_of(self, body: int) -> str | None:
+        return self._object_by_body.get(body)
+
+    def door_of(self, body: int) -> str | None:
+        return self._door_by_body.get(body)
+
+    def close(self) -> None:
+        if p.isConnected(self.client):
+            p.disconnect(self.client)
+
+    def __enter__(self) -> Sim:
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self.close()
