@@ -22,6 +22,7 @@ from stalm.geometry.transforms import (
     compose,
     gripper_rotation,
     invert,
+    matrix_from_quat,
     quat_from_matrix,
     se2_to_local,
     se2_to_world,
@@ -30,7 +31,7 @@ from stalm.geometry.transforms import (
 )
 from stalm.motion.arm_motion import first_collision, interpolate_waypoints
 from stalm.motion.base_motion import BasePath, BasePlanner
-from stalm.motion.ik import solve_ik
+from stalm.motion.ik import IKSolution, solve_ik, solve_ik_from
 from stalm.world import robot as robot_model
 from stalm.world.relations import direction_between, supporting_region
 from stalm.world.scene import Sim
@@ -38,6 +39,10 @@ from stalm.world.spec import GRILL_HANDLE_REACH, ObjectSpec, RegionSpec
 from stalm.world.state import Grasp, ObjectPose, RobotConf, State
 
 CARRY_CONF = (robot_model.CARRY_LIFT, *robot_model.CARRY_ARM)
+APPROACH_DISTANCE = 0.08
+"""The gripper comes in (and backs out) along its approach axis over this distance (m)."""
+LIFT_DISTANCE = 0.05
+"""A grasped object is raised this much before the arm folds back (m)."""
 
 
 @dataclass(frozen=True)
@@ -62,8 +67,9 @@ def grasp_points(obj: ObjectSpec) -> list[tuple[float, float, float]]:
         return [(0.0, side, sz * 0.75), (0.0, -side, sz * 0.75)]
     assert obj.radius is not None and obj.height is not None
     if obj.shape == "disc":
-        r = obj.radius * 0.85
-        return [(r, 0.0, obj.height / 2), (-r, 0.0, obj.height / 2), (0.0, r, obj.height / 2), (0.0, -r, obj.height / 2)]
+        # a plate is taken at its rim from above: the grasp point sits just over the rim
+        r, z = obj.radius * 0.85, obj.height + 0.012
+        return [(r, 0.0, z), (-r, 0.0, z), (0.0, r, z), (0.0, -r, z)]
     return [(0.0, 0.0, min(obj.height / 2, 0.09))]
 
 
@@ -134,6 +140,25 @@ class Samplers:
     def arm_motion_free(self, base: tuple[float, float, float], waypoints: list[tuple[float, ...]], ignore: set[int]) -> set[int]:
         return first_collision(self.sim, base, interpolate_waypoints(waypoints), ignore)
 
+    def offset_conf(
+        self,
+        base: tuple[float, float, float],
+        target: Pose3,
+        solution: IKSolution,
+        backoff: float = 0.0,
+        raise_by: float = 0.0,
+    ) -> tuple[float, ...]:
+        """The configuration with the gripper backed off along its approach axis or raised;
+        falls back to the target configuration itself when IK cannot reach the offset pose."""
+        rot = gripper_axis(target)
+        x, y, z = target[0]
+        moved: Pose3 = (
+            (x - backoff * rot[0], y - backoff * rot[1], z - backoff * rot[2] + raise_by),
+            target[1],
+        )
+        near = solve_ik_from(self.sim, base, moved, solution)
+        return _conf(near if near is not None else solution)
+
     # ------------------------------------------------------------------ PICK
     def pick(self, state: State, action: Pick, rng: np.random.Generator) -> PickParams | Infeasibility:
         obj = self.problem.object(action.obj)
@@ -159,23 +184,26 @@ class Samplers:
             if solution is None:
                 failures.add("no_ik", f"no IK solution to grasp '{action.obj}'")
                 continue
-            grasp_conf = (solution.lift, *solution.arm)
-            hits = self.arm_motion_free(stand, [CARRY_CONF, grasp_conf], {body})
+            grasp_conf = _conf(solution)
+            pre_conf = self.offset_conf(stand, target, solution, backoff=APPROACH_DISTANCE)
+            approach = [CARRY_CONF, pre_conf, grasp_conf]
+            hits = self.arm_motion_free(stand, approach, {body})
             if hits:
                 failures.add("arm_collision", f"reaching for '{action.obj}' collides", self.names(hits))
                 continue
             self.sim.set_arm(stand, solution.lift, solution.arm)
             grasp_pose = compose(invert(self.sim.gripper_pose()), self.sim.object_pose(action.obj))
             grasp = Grasp.make(action.obj, grasp_pose[0], grasp_pose[1])
+            up_conf = self.offset_conf(stand, target, solution, raise_by=LIFT_DISTANCE)
             self.sim.attach(grasp)
-            hits = self.arm_motion_free(stand, [grasp_conf, CARRY_CONF], set())
+            hits = self.arm_motion_free(stand, [grasp_conf, up_conf, CARRY_CONF], set())
             self.sim.attach(None)
             if hits:
                 failures.add("arm_collision", f"lifting '{action.obj}' collides", self.names(hits))
                 continue
             return PickParams(
                 base_path=path, pitch=pitch, yaw=yaw, grasp=grasp, grasp_conf=grasp_conf,
-                arm_waypoints=(CARRY_CONF, grasp_conf, CARRY_CONF),
+                arm_waypoints=(*approach, up_conf, CARRY_CONF),
             )
         return failures.result(f"no grasp of '{action.obj}' found")
 
@@ -243,21 +271,23 @@ class Samplers:
             if solution is None:
                 failures.add("no_ik", f"no IK solution to place '{action.obj}' on '{region.name}'")
                 continue
-            place_conf = (solution.lift, *solution.arm)
+            place_conf = _conf(solution)
+            above_conf = self.offset_conf(stand, hand, solution, raise_by=LIFT_DISTANCE)
             self.sim.attach(state.held, state.held_yaw_offset)
-            hits = self.arm_motion_free(stand, [CARRY_CONF, place_conf], set())
+            hits = self.arm_motion_free(stand, [CARRY_CONF, above_conf, place_conf], set())
             if hits:
                 failures.add("arm_collision", f"placing '{action.obj}' collides", self.names(hits))
                 continue
             self.sim.attach(None)
             self.sim.place_object(action.obj, placement)
-            hits = self.arm_motion_free(stand, [place_conf, CARRY_CONF], {body})
+            back_conf = self.offset_conf(stand, hand, solution, backoff=APPROACH_DISTANCE)
+            hits = self.arm_motion_free(stand, [place_conf, back_conf, CARRY_CONF], {body})
             if hits:
                 failures.add("arm_collision", f"retreating from '{action.obj}' collides", self.names(hits))
                 continue
             return PlaceParams(
                 base_path=path, placement=placement, place_conf=place_conf,
-                arm_waypoints=(CARRY_CONF, place_conf, CARRY_CONF),
+                arm_waypoints=(CARRY_CONF, above_conf, place_conf, back_conf, CARRY_CONF),
             )
         return failures.result(f"no placement of '{action.obj}' found")
 
@@ -304,6 +334,16 @@ class Samplers:
                     continue
                 return OpenParams(base_path=path, handle_conf=handle_conf, arm_waypoints=(CARRY_CONF, handle_conf, CARRY_CONF))
         return failures.result(f"'{action.door}' could not be opened")
+
+
+def _conf(solution: IKSolution) -> tuple[float, ...]:
+    return (solution.lift, *solution.arm)
+
+
+def gripper_axis(target: Pose3) -> tuple[float, float, float]:
+    """The approach direction (+z of the gripper frame) of a gripper pose."""
+    rot = matrix_from_quat(target[1])
+    return (float(rot[0, 2]), float(rot[1, 2]), float(rot[2, 2]))
 
 
 def _fmt(pose: tuple[float, float, float]) -> str:

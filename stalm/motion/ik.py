@@ -46,6 +46,55 @@ def lift_candidates(target_z: float) -> tuple[float, ...]:
     return tuple(values)
 
 
+def solve_ik_from(
+    sim: Sim, base: tuple[float, float, float], target: Pose3, start: IKSolution
+) -> IKSolution | None:
+    """IK seeded at a known nearby solution and its lift (for approach and lift-off poses)."""
+    return _refine(sim, base, target, start.lift, start.arm)
+
+
+def _limits() -> tuple[list[float], list[float], list[float]]:
+    lows = [lo for lo, _ in robot_model.ARM_JOINT_LIMITS]
+    highs = [hi for _, hi in robot_model.ARM_JOINT_LIMITS]
+    return lows, highs, [hi - lo for lo, hi in robot_model.ARM_JOINT_LIMITS]
+
+
+def _refine(
+    sim: Sim, base: tuple[float, float, float], target: Pose3, lift: float, seed: tuple[float, ...]
+) -> IKSolution | None:
+    """Up to :data:`REFINEMENTS` IK calls from ``seed``; the solution if FK confirms it."""
+    lows, highs, ranges = _limits()
+    # null-space lists cover every movable joint of the URDF (7 arm + 2 fingers)
+    fingers = [robot_model.FINGER_OPENING, robot_model.FINGER_OPENING]
+    target_rot = matrix_from_quat(target[1])
+    held, held_offset = sim.held, sim.held_yaw_offset
+    sim.attach(None)
+    try:
+        q = seed
+        for _ in range(REFINEMENTS):
+            sim.set_arm(base, lift, q)
+            solution = p.calculateInverseKinematics(
+                sim.bodies.arm, GRASP_LINK, list(target[0]), list(target[1]),
+                lowerLimits=[*lows, 0.0, 0.0], upperLimits=[*highs, 0.04, 0.04],
+                jointRanges=[*ranges, 0.04, 0.04], restPoses=[*seed, *fingers],
+                maxNumIterations=60, residualThreshold=1e-5, physicsClientId=sim.client,
+            )
+            q = tuple(
+                min(hi, max(lo, float(v)))
+                for v, lo, hi in zip(solution[: len(ARM_JOINTS)], lows, highs, strict=True)
+            )
+            sim.set_arm(base, lift, q)
+            pos, orn = sim.gripper_pose()
+            if (
+                math.dist(pos, target[0]) <= POSITION_TOLERANCE
+                and angle_between_rotations(matrix_from_quat(orn), target_rot) <= ANGLE_TOLERANCE
+            ):
+                return IKSolution(lift, q)
+        return None
+    finally:
+        sim.attach(held, held_offset)
+
+
 def solve_ik(
     sim: Sim,
     base: tuple[float, float, float],
@@ -53,45 +102,17 @@ def solve_ik(
     rng: np.random.Generator,
     attempts: int = 6,
 ) -> IKSolution | None:
-    """An arm configuration putting the grasp point at ``target`` from ``base``, or None."""
-    c = sim.client
-    arm = sim.bodies.arm
-    lows = [lo for lo, _ in robot_model.ARM_JOINT_LIMITS]
-    highs = [hi for _, hi in robot_model.ARM_JOINT_LIMITS]
-    ranges = [hi - lo for lo, hi in robot_model.ARM_JOINT_LIMITS]
-    # null-space lists cover every movable joint of the URDF (7 arm + 2 fingers)
-    lows_all = [*lows, 0.0, 0.0]
-    highs_all = [*highs, 0.04, 0.04]
-    ranges_all = [*ranges, 0.04, 0.04]
-    target_rot = matrix_from_quat(target[1])
+    """An arm configuration putting the grasp point at ``target`` from ``base``, or None.
+
+    The first restart starts from :data:`NOMINAL_ARM`, later ones from random configurations;
+    lift heights cycle through :func:`lift_candidates`.
+    """
+    lows, highs, _ = _limits()
     candidates = lift_candidates(target[0][2])
-    held, held_offset = sim.held, sim.held_yaw_offset
-    sim.attach(None)
-    try:
-        for attempt in range(attempts):
-            lift = candidates[attempt % len(candidates)]
-            seed = NOMINAL_ARM if attempt == 0 else tuple(float(v) for v in rng.uniform(lows, highs))
-            q = seed
-            for _ in range(REFINEMENTS):
-                sim.set_arm(base, lift, q)
-                rest = [*seed, robot_model.FINGER_OPENING, robot_model.FINGER_OPENING]
-                solution = p.calculateInverseKinematics(
-                    arm, GRASP_LINK, list(target[0]), list(target[1]),
-                    lowerLimits=lows_all, upperLimits=highs_all, jointRanges=ranges_all,
-                    restPoses=rest, maxNumIterations=60, residualThreshold=1e-5,
-                    physicsClientId=c,
-                )
-                q = tuple(
-                    min(hi, max(lo, float(v)))
-                    for v, lo, hi in zip(solution[: len(ARM_JOINTS)], lows, highs, strict=True)
-                )
-                sim.set_arm(base, lift, q)
-                pos, orn = sim.gripper_pose()
-                if (
-                    math.dist(pos, target[0]) <= POSITION_TOLERANCE
-                    and angle_between_rotations(matrix_from_quat(orn), target_rot) <= ANGLE_TOLERANCE
-                ):
-                    return IKSolution(lift, q)
-        return None
-    finally:
-        sim.attach(held, held_offset)
+    for attempt in range(attempts):
+        lift = candidates[attempt % len(candidates)]
+        seed = NOMINAL_ARM if attempt == 0 else tuple(float(v) for v in rng.uniform(lows, highs))
+        solution = _refine(sim, base, target, lift, seed)
+        if solution is not None:
+            return solution
+    return None

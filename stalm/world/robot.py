@@ -17,7 +17,7 @@ ARM_MOUNT_FORWARD = 0.15
 """The arm's mount sits this far ahead of the base centre, toward the region it faces."""
 LIFT_RANGE = (0.55, 1.45)
 """Heights of the arm's mount above the floor that the lift can reach (m)."""
-CARRY_LIFT = 0.75
+CARRY_LIFT = 0.85
 """Lift height while driving (keeps the arm below the shelf board and above tables' edges)."""
 CARRY_ARM = (0.0, -1.7, 0.0, -3.0, 0.0, 1.5, 0.785)
 """Arm joints while driving: the hand folded back over the base, inside the footprint."""

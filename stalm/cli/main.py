@@ -1,0 +1,43 @@
+"""The ``stalm`` command: one Typer app; each command group lives in its own module.
+
+Command modules register themselves by being imported here. A :class:`~stalm.errors.StalmError`
+raised anywhere becomes one clear ``error:`` line and exit code 2 instead of a traceback.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+from rich.console import Console
+
+from stalm.errors import StalmError
+
+app = typer.Typer(
+    name="stalm",
+    help="Geometric task and motion planning guided by language models (STaLM).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+ERROR_CONSOLE = Console(stderr=True)
+
+
+def _register_commands() -> None:
+    """Import the command modules; each adds its commands to :data:`app`."""
+    from stalm.cli import world_commands  # noqa: F401
+
+
+def main() -> None:
+    """Entry point used by the console script: run the app, turn user errors into one line."""
+    _register_commands()
+    try:
+        app(standalone_mode=False)
+    except StalmError as error:
+        ERROR_CONSOLE.print(f"[bold red]error:[/] {error}", highlight=False)
+        sys.exit(2)
+    except typer.Exit as done:
+        sys.exit(done.exit_code)
+    except typer.Abort:
+        sys.exit(1)

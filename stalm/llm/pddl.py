@@ -1,0 +1,226 @@
+"""The prompt's abstraction as strict PDDL, for real planners, validators and tests.
+
+The prompt (:mod:`stalm.llm.prompt`) must keep the paper's PDDL-*style* wording, which no parser
+accepts: untyped parameters, comments that swallow parentheses, an effect that names variables
+the action does not bind. This module writes the same domain so that a toolchain accepts it
+(it is checked with Fast Downward's translator and the ``pddl`` parser in the tests), which lets
+us confirm the abstraction means what the prompt claims and gives baselines a real domain.
+
+Where strict PDDL forces a choice, the choice and its reason:
+
+* ``place``'s reference is a region (for ``on``) or another movable (for the four relative
+  directions), so it is typed by the supertype ``placeable``; an ADL precondition ties the
+  direction to the reference's kind and forbids placing an object relative to itself. Its
+  ground actions are then exactly :meth:`Vocabulary.all_discrete_actions`.
+* ``pick`` deletes every ``AtPosition`` of the picked object with a ``forall`` effect (the
+  paper's ``(not (AtPosition ?subject ?direction ?reference))`` leaves both unbound).
+* Occlusions are cleared by the entity that causes them, as the paper's predicate cache does
+  (Appendix A): picking an occluder, or opening an occluding door, deletes the occlusions it
+  caused. Occlusions a placement would create are not predicted (the abstraction is optimistic
+  there, as the prompt is); STaLM recomputes the predicates from geometry at every query.
+* ``UnsafePick``/``UnsafePlace`` stay derived predicates (``:derived-predicates``), as in the
+  prompt, rather than being compiled into the preconditions.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+
+from stalm.domain.actions import DIRECTIONS
+from stalm.domain.vocabulary import Vocabulary
+from stalm.errors import StalmError
+from stalm.llm.prompt import DOOR_TYPE, MOVABLE_TYPE, REGION_TYPE, PromptOptions
+from stalm.predicates.literals import OCCLUSION_PREDICATES, GroundLiteral
+
+DOMAIN_NAME = "shop"
+#: Supertype of everything ``place`` can put an object relative to: regions and movables.
+PLACEABLE_TYPE = "placeable"
+DIRECTION_TYPE = "direction"
+#: Every named thing of the scene (not the directions): what may occlude an action. The root
+#: ``object`` would do, but the ``pddl`` parser rejects variables typed by the implicit root.
+ENTITY_TYPE = "entity"
+
+#: Number of arguments of each predicate a problem may state.
+PREDICATE_ARITY: dict[str, int] = {
+    "HandAvailable": 0,
+    "RobotHolding": 1,
+    "AtPosition": 3,
+    "IsClosed": 1,
+    "PickOccludedBy": 2,
+    "PlaceOccludedBy": 4,
+}
+
+_PDDL_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]*")
+_RESERVED = frozenset({"object", "either", "and", "or", "not", "forall", "exists", "when"})
+
+_TYPES = f"""  (:types
+    {ENTITY_TYPE} {DIRECTION_TYPE} - object
+    {PLACEABLE_TYPE} {DOOR_TYPE} - {ENTITY_TYPE}
+    {MOVABLE_TYPE} {REGION_TYPE} - {PLACEABLE_TYPE})"""
+
+_CONSTANTS = f"  (:constants {' '.join(DIRECTIONS)} - {DIRECTION_TYPE})"
+
+_BASE_PREDICATES = """    (HandAvailable)
+    (RobotHolding ?subject - movable_object)
+    (AtPosition ?subject - movable_object ?direction - direction ?reference - placeable)
+    (IsClosed ?door - openable)"""
+
+_OCCLUSION_PREDICATES = """    (PickOccludedBy ?subject - movable_object ?occluder - entity)
+    (PlaceOccludedBy ?subject - movable_object ?direction - direction ?reference - placeable
+                     ?occluder - entity)
+    (UnsafePick ?subject - movable_object)
+    (UnsafePlace ?subject - movable_object ?direction - direction ?reference - placeable)"""
+
+_DERIVED = """  (:derived (UnsafePick ?subject - movable_object)
+    (exists (?occluder - entity) (PickOccludedBy ?subject ?occluder)))
+
+  (:derived (UnsafePlace ?subject - movable_object ?direction - direction
+                         ?reference - placeable)
+    (exists (?occluder - entity) (PlaceOccludedBy ?subject ?direction ?reference ?occluder)))"""
+
+
+def _clear_occlusions_by(entity: str) -> str:
+    """Effects deleting every occlusion that ``entity`` causes (paper, Appendix A)."""
+    return f"""
+      (forall (?other - movable_object) (not (PickOccludedBy ?other {entity})))
+      (forall (?other - movable_object ?direction - direction ?reference - placeable)
+        (not (PlaceOccludedBy ?other ?direction ?reference {entity})))"""
+
+
+def _actions(occlusion: bool) -> str:
+    pick_safe = " (not (UnsafePick ?subject))" if occlusion else ""
+    place_safe = "\n      (not (UnsafePlace ?subject ?direction ?reference))" if occlusion else ""
+    pick_clears = _clear_occlusions_by("?subject") if occlusion else ""
+    open_clears = _clear_occlusions_by("?door") if occlusion else ""
+    return f"""  (:action pick
+    :parameters (?subject - movable_object)
+    :precondition (and (HandAvailable){pick_safe})
+    :effect (and
+      (not (HandAvailable))
+      (RobotHolding ?subject)
+      (forall (?direction - direction ?reference - placeable)
+        (not (AtPosition ?subject ?direction ?reference))){pick_clears}))
+
+  (:action place
+    :parameters (?subject - movable_object ?direction - direction ?reference - placeable)
+    :precondition (and
+      (RobotHolding ?subject){place_safe}
+      (or (and (= ?direction on)
+               (exists (?region - region) (= ?region ?reference)))
+          (and (not (= ?direction on))
+               (not (= ?reference ?subject))
+               (exists (?other - movable_object) (= ?other ?reference)))))
+    :effect (and
+      (not (RobotHolding ?subject))
+      (HandAvailable)
+      (AtPosition ?subject ?direction ?reference)))
+
+  (:action open
+    :parameters (?door - openable)
+    :precondition (and (IsClosed ?door) (HandAvailable))
+    :effect (and
+      (not (IsClosed ?door)){open_clears}))"""
+
+
+def requirements(options: PromptOptions) -> tuple[str, ...]:
+    """The PDDL requirements the domain uses; derived predicates only with occlusions."""
+    needed = [
+        ":strips",
+        ":typing",
+        ":negative-preconditions",
+        ":disjunctive-preconditions",
+        ":equality",
+        ":existential-preconditions",
+        ":conditional-effects",
+    ]
+    if options.occlusion_predicates:
+        needed.append(":derived-predicates")
+    return tuple(needed)
+
+
+def domain_pddl(options: PromptOptions = PromptOptions()) -> str:  # noqa: B008 - frozen
+    """The strict PDDL domain; ``options.occlusion_predicates`` as in the prompt's ablation."""
+    occlusion = options.occlusion_predicates
+    predicates = _BASE_PREDICATES + ("\n" + _OCCLUSION_PREDICATES if occlusion else "")
+    parts = [
+        f"(define (domain {DOMAIN_NAME})\n  (:requirements {' '.join(requirements(options))})",
+        _TYPES,
+        _CONSTANTS,
+        f"  (:predicates\n{predicates})",
+    ]
+    if occlusion:
+        parts.append(_DERIVED)
+    parts.append(_actions(occlusion))
+    return "\n\n".join(parts) + ")\n"
+
+
+def _check_names(vocabulary: Vocabulary) -> None:
+    """Names must be PDDL names, distinct ignoring case, and not clash with the directions."""
+    seen: dict[str, str] = {direction: direction for direction in DIRECTIONS}
+    for name in vocabulary.all_names:
+        if not _PDDL_NAME.fullmatch(name) or name.lower() in _RESERVED:
+            raise StalmError(f"name {name!r} is not a valid PDDL name")
+        previous = seen.get(name.lower())
+        if previous is not None:
+            raise StalmError(f"name {name!r} clashes with {previous!r} (PDDL ignores case)")
+        seen[name.lower()] = name
+
+
+def _check_literal(vocabulary: Vocabulary, literal: GroundLiteral, field: str) -> None:
+    arity = PREDICATE_ARITY.get(literal.name)
+    if arity is None:
+        raise StalmError(f"{field}: unknown predicate {literal.name!r} in {literal}")
+    if len(literal.args) != arity:
+        raise StalmError(
+            f"{field}: {literal.name} takes {arity} argument(s), got {len(literal.args)} "
+            f"in {literal}"
+        )
+    known = set(vocabulary.all_names) | set(DIRECTIONS)
+    for arg in literal.args:
+        if arg not in known:
+            raise StalmError(f"{field}: unknown name {arg!r} in {literal}")
+
+
+def _atom(literal: GroundLiteral) -> str:
+    return "(" + " ".join((literal.name, *literal.args)) + ")"
+
+
+def problem_pddl(
+    vocabulary: Vocabulary,
+    init: Sequence[GroundLiteral],
+    goal: Sequence[GroundLiteral],
+    name: str,
+    options: PromptOptions = PromptOptions(),  # noqa: B008 - frozen
+) -> str:
+    """A strict PDDL problem for :func:`domain_pddl` with the same options.
+
+    ``name`` becomes the problem's PDDL name (characters PDDL does not allow become ``-``).
+    Raises :class:`StalmError` for names PDDL cannot express and for literals with unknown
+    predicates, wrong arity or unknown names.
+    """
+    _check_names(vocabulary)
+    for literal in init:
+        _check_literal(vocabulary, literal, "init")
+    for literal in goal:
+        _check_literal(vocabulary, literal, "goal")
+    if not options.occlusion_predicates:
+        init = [literal for literal in init if literal.name not in OCCLUSION_PREDICATES]
+    problem_name = re.sub(r"[^A-Za-z0-9_-]", "-", name)
+    if not problem_name or not problem_name[0].isalpha():
+        problem_name = "problem-" + problem_name
+    groups = [
+        (vocabulary.movables, MOVABLE_TYPE),
+        (vocabulary.doors, DOOR_TYPE),
+        (vocabulary.regions, REGION_TYPE),
+    ]
+    objects = "".join(f"\n    {' '.join(names)} - {kind}" for names, kind in groups if names)
+    init_lines = "".join(f"\n    {_atom(literal)}" for literal in init)
+    goal_lines = "".join(f"\n    {_atom(literal)}" for literal in goal)
+    return (
+        f"(define (problem {problem_name})\n"
+        f"  (:domain {DOMAIN_NAME})\n"
+        f"  (:objects{objects})\n"
+        f"  (:init{init_lines})\n"
+        f"  (:goal (and{goal_lines})))\n"
+    )
