@@ -26,7 +26,7 @@ ERROR_CONSOLE = Console(stderr=True)
 
 def _register_commands() -> None:
     """Import the command modules; each adds its commands to :data:`app`."""
-    from stalm.cli import world_commands  # noqa: F401
+    from stalm.cli import bench_commands, world_commands  # noqa: F401
 
 
 def main() -> None:

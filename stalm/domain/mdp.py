@@ -15,7 +15,7 @@ import numpy as np
 from stalm.domain.actions import DiscreteAction, Open, Pick, Place
 from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
-from stalm.domain.samplers import CARRY_CONF, SamplerSettings, Samplers
+from stalm.domain.samplers import CARRY_CONF, Samplers, SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.motion.base_motion import BasePlanner
 from stalm.motion.roadmap import RoadmapSettings
@@ -111,14 +111,18 @@ class Domain:
         return sum(at_position(spec, state, g.obj, g.direction, g.ref) for g in self.problem.goal)
 
     # ------------------------------------------------------------------ ψ, T, R
-    def sample(self, state: State, action: DiscreteAction, rng: np.random.Generator) -> Action | Infeasibility:
+    def sample(
+        self, state: State, action: DiscreteAction, rng: np.random.Generator
+    ) -> Action | Infeasibility:
         """ψ(s, α(δ)): a feasible κ for ``action`` in ``state``, or why there is none."""
         self.counters.samples += 1
         why = self.precondition_failure(state, action)
         if why is not None:
             return Infeasibility("precondition", why)
         if isinstance(action, Pick):
-            params: PickParams | PlaceParams | OpenParams | Infeasibility = self.samplers.pick(state, action, rng)
+            params: PickParams | PlaceParams | OpenParams | Infeasibility = self.samplers.pick(
+                state, action, rng
+            )
         elif isinstance(action, Place):
             params = self.samplers.place(state, action, rng)
         else:
@@ -151,7 +155,9 @@ class Domain:
                 held_yaw_offset=0.0,
             )
         assert isinstance(discrete, Open)
-        return state.with_changes(robot=_carry(params.base_path.corners[-1]), open_door=discrete.door)
+        return state.with_changes(
+            robot=_carry(params.base_path.corners[-1]), open_door=discrete.door
+        )
 
     def reward(self, state: State, next_state: State) -> float:
         """+3 per goal conjunct made true (false before), +100 on reaching the goal."""
@@ -179,7 +185,9 @@ class Domain:
         self.counters.infeasible += 1
         return Outcome(state, self.reward_settings.infeasible, False, why, False)
 
-    def sample_and_step(self, state: State, action: DiscreteAction, rng: np.random.Generator) -> tuple[Action | None, Outcome]:
+    def sample_and_step(
+        self, state: State, action: DiscreteAction, rng: np.random.Generator
+    ) -> tuple[Action | None, Outcome]:
         """Draw κ and apply it; an infeasible draw yields the failure outcome."""
         drawn = self.sample(state, action, rng)
         if isinstance(drawn, Infeasibility):

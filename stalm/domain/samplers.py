@@ -43,6 +43,8 @@ APPROACH_DISTANCE = 0.08
 """The gripper comes in (and backs out) along its approach axis over this distance (m)."""
 LIFT_DISTANCE = 0.05
 """A grasped object is raised this much before the arm folds back (m)."""
+PLACE_CLEARANCE = 0.12
+"""A held object is lowered onto its placement from this height above it (m)."""
 
 
 @dataclass(frozen=True)
@@ -62,7 +64,7 @@ def grasp_points(obj: ObjectSpec) -> list[tuple[float, float, float]]:
     """Candidate grasp points in the object's frame (origin at its bottom centre)."""
     if obj.shape == "grill":
         assert obj.size is not None
-        sx, sy, sz = obj.size
+        _sx, sy, sz = obj.size
         side = sy / 2 + GRILL_HANDLE_REACH * 0.6
         return [(0.0, side, sz * 0.75), (0.0, -side, sz * 0.75)]
     assert obj.radius is not None and obj.height is not None
@@ -73,7 +75,9 @@ def grasp_points(obj: ObjectSpec) -> list[tuple[float, float, float]]:
     return [(0.0, 0.0, min(obj.height / 2, 0.09))]
 
 
-def nearest_grasp_point(obj: ObjectSpec, pose: ObjectPose, base: tuple[float, float, float]) -> tuple[float, float, float]:
+def nearest_grasp_point(
+    obj: ObjectSpec, pose: ObjectPose, base: tuple[float, float, float]
+) -> tuple[float, float, float]:
     """The object's grasp point nearest the standing pose, in world coordinates."""
     best: tuple[float, float, float] | None = None
     best_distance = math.inf
@@ -137,7 +141,9 @@ class Samplers:
             tuple(sorted(blockers)),
         )
 
-    def arm_motion_free(self, base: tuple[float, float, float], waypoints: list[tuple[float, ...]], ignore: set[int]) -> set[int]:
+    def arm_motion_free(
+        self, base: tuple[float, float, float], waypoints: list[tuple[float, ...]], ignore: set[int]
+    ) -> set[int]:
         return first_collision(self.sim, base, interpolate_waypoints(waypoints), ignore)
 
     def offset_conf(
@@ -160,7 +166,9 @@ class Samplers:
         return _conf(near if near is not None else solution)
 
     # ------------------------------------------------------------------ PICK
-    def pick(self, state: State, action: Pick, rng: np.random.Generator) -> PickParams | Infeasibility:
+    def pick(
+        self, state: State, action: Pick, rng: np.random.Generator
+    ) -> PickParams | Infeasibility:
         obj = self.problem.object(action.obj)
         pose = state.pose(action.obj)
         region_name = supporting_region(self.problem, pose)
@@ -189,7 +197,9 @@ class Samplers:
             approach = [CARRY_CONF, pre_conf, grasp_conf]
             hits = self.arm_motion_free(stand, approach, {body})
             if hits:
-                failures.add("arm_collision", f"reaching for '{action.obj}' collides", self.names(hits))
+                failures.add(
+                    "arm_collision", f"reaching for '{action.obj}' collides", self.names(hits)
+                )
                 continue
             self.sim.set_arm(stand, solution.lift, solution.arm)
             grasp_pose = compose(invert(self.sim.gripper_pose()), self.sim.object_pose(action.obj))
@@ -202,7 +212,11 @@ class Samplers:
                 failures.add("arm_collision", f"lifting '{action.obj}' collides", self.names(hits))
                 continue
             return PickParams(
-                base_path=path, pitch=pitch, yaw=yaw, grasp=grasp, grasp_conf=grasp_conf,
+                base_path=path,
+                pitch=pitch,
+                yaw=yaw,
+                grasp=grasp,
+                grasp_conf=grasp_conf,
                 arm_waypoints=(*approach, up_conf, CARRY_CONF),
             )
         return failures.result(f"no grasp of '{action.obj}' found")
@@ -212,13 +226,17 @@ class Samplers:
         if action.direction == "on":
             return self.problem.region(action.ref)
         if not state.has_pose(action.ref):
-            return Infeasibility("precondition", f"reference '{action.ref}' is not resting anywhere")
+            return Infeasibility(
+                "precondition", f"reference '{action.ref}' is not resting anywhere"
+            )
         name = supporting_region(self.problem, state.pose(action.ref))
         if name is None:
             return Infeasibility("precondition", f"reference '{action.ref}' rests on no region")
         return self.problem.region(name)
 
-    def draw_placement(self, state: State, action: Place, region: RegionSpec, yaw: float, rng: np.random.Generator) -> ObjectPose | None:
+    def draw_placement(
+        self, state: State, action: Place, region: RegionSpec, yaw: float, rng: np.random.Generator
+    ) -> ObjectPose | None:
         """Uniform (x, y) on the region's usable area, rejected until it lies in ``dir``."""
         obj = self.problem.object(action.obj)
         hx, hy, _ = obj.half_extents
@@ -239,7 +257,9 @@ class Samplers:
                 return pose
         return None
 
-    def place(self, state: State, action: Place, rng: np.random.Generator) -> PlaceParams | Infeasibility:
+    def place(
+        self, state: State, action: Place, rng: np.random.Generator
+    ) -> PlaceParams | Infeasibility:
         assert state.held is not None
         region = self.target_region(state, action)
         if isinstance(region, Infeasibility):
@@ -257,13 +277,20 @@ class Samplers:
             self.sim.set_base_only(stand)
             placement = self.draw_placement(state, action, region, yaw, rng)
             if placement is None:
-                failures.add("no_placement", f"no placement {action.direction} '{action.ref}' drawn on '{region.name}'")
+                failures.add(
+                    "no_placement",
+                    f"no placement {action.direction} '{action.ref}' drawn on '{region.name}'",
+                )
                 continue
             self.sim.attach(None)
             self.sim.place_object(action.obj, placement)
             hits = self.sim.contacts_of([body], robot_bodies)
             if hits:
-                failures.add("no_placement", f"placements of '{action.obj}' on '{region.name}' collide", self.names(hits))
+                failures.add(
+                    "no_placement",
+                    f"placements of '{action.obj}' on '{region.name}' collide",
+                    self.names(hits),
+                )
                 continue
             object_pose: Pose3 = ((placement.x, placement.y, placement.z), yaw_quat(placement.yaw))
             hand = compose(object_pose, invert(state.held.pose))
@@ -272,7 +299,7 @@ class Samplers:
                 failures.add("no_ik", f"no IK solution to place '{action.obj}' on '{region.name}'")
                 continue
             place_conf = _conf(solution)
-            above_conf = self.offset_conf(stand, hand, solution, raise_by=LIFT_DISTANCE)
+            above_conf = self.offset_conf(stand, hand, solution, raise_by=PLACE_CLEARANCE)
             self.sim.attach(state.held, state.held_yaw_offset)
             hits = self.arm_motion_free(stand, [CARRY_CONF, above_conf, place_conf], set())
             if hits:
@@ -283,10 +310,14 @@ class Samplers:
             back_conf = self.offset_conf(stand, hand, solution, backoff=APPROACH_DISTANCE)
             hits = self.arm_motion_free(stand, [place_conf, back_conf, CARRY_CONF], {body})
             if hits:
-                failures.add("arm_collision", f"retreating from '{action.obj}' collides", self.names(hits))
+                failures.add(
+                    "arm_collision", f"retreating from '{action.obj}' collides", self.names(hits)
+                )
                 continue
             return PlaceParams(
-                base_path=path, placement=placement, place_conf=place_conf,
+                base_path=path,
+                placement=placement,
+                place_conf=place_conf,
                 arm_waypoints=(CARRY_CONF, above_conf, place_conf, back_conf, CARRY_CONF),
             )
         return failures.result(f"no placement of '{action.obj}' found")
@@ -303,7 +334,9 @@ class Samplers:
         del su
         return (x, y, door.handle_height), quat_from_matrix(gripper_rotation(approach, 0.0))
 
-    def open(self, state: State, action: Open, rng: np.random.Generator) -> OpenParams | Infeasibility:
+    def open(
+        self, state: State, action: Open, rng: np.random.Generator
+    ) -> OpenParams | Infeasibility:
         door = self.problem.door(action.door)
         door_body = self.sim.bodies.doors[action.door]
         failures = Failures()
@@ -316,23 +349,41 @@ class Samplers:
             for _ in range(self.settings.open_tries):
                 self.sim.set_state(state)
                 self.sim.set_base_only(stand)
-                solution = solve_ik(self.sim, stand, self.handle_target(action.door, stand), rng, self.settings.ik_attempts * 3)
+                solution = solve_ik(
+                    self.sim,
+                    stand,
+                    self.handle_target(action.door, stand),
+                    rng,
+                    self.settings.ik_attempts * 3,
+                )
                 if solution is None:
                     failures.add("no_ik", f"no IK solution to the handle of '{action.door}'")
                     continue
                 handle_conf = (solution.lift, *solution.arm)
-                hits = self.arm_motion_free(stand, [CARRY_CONF, handle_conf, CARRY_CONF], {door_body})
+                hits = self.arm_motion_free(
+                    stand, [CARRY_CONF, handle_conf, CARRY_CONF], {door_body}
+                )
                 if hits:
-                    failures.add("arm_collision", f"reaching the handle of '{action.door}' collides", self.names(hits))
+                    failures.add(
+                        "arm_collision",
+                        f"reaching the handle of '{action.door}' collides",
+                        self.names(hits),
+                    )
                     continue
                 self.sim.set_robot(RobotConf.make(stand, CARRY_CONF[0], CARRY_CONF[1:]))
                 self.sim.set_door(action.door, True)
                 hits = self.sim.contacts_of([door_body])
                 self.sim.set_door(action.door, False)
                 if hits:
-                    failures.add("door_blocked", f"'{action.door}' cannot swing open", self.names(hits))
+                    failures.add(
+                        "door_blocked", f"'{action.door}' cannot swing open", self.names(hits)
+                    )
                     continue
-                return OpenParams(base_path=path, handle_conf=handle_conf, arm_waypoints=(CARRY_CONF, handle_conf, CARRY_CONF))
+                return OpenParams(
+                    base_path=path,
+                    handle_conf=handle_conf,
+                    arm_waypoints=(CARRY_CONF, handle_conf, CARRY_CONF),
+                )
         return failures.result(f"'{action.door}' could not be opened")
 
 

@@ -99,7 +99,7 @@ def compose(a: Pose3, b: Pose3) -> Pose3:
 
 def invert(pose: Pose3) -> Pose3:
     """The inverse transform of ``pose``."""
-    return matrix_pose(np.linalg.inv(pose_matrix(pose)))
+    return matrix_pose(np.asarray(np.linalg.inv(pose_matrix(pose)), dtype=np.float64))
 
 
 def se2_to_local(frame: Sequence[float], x: float, y: float) -> tuple[float, float]:

@@ -9,6 +9,7 @@ between two checked configurations.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Sequence
 
@@ -35,7 +36,7 @@ def interpolate(start: Sequence[float], end: Sequence[float]) -> list[Conf]:
 def interpolate_waypoints(waypoints: Sequence[Sequence[float]]) -> list[Conf]:
     """Dense configurations through every waypoint in turn."""
     dense: list[Conf] = [tuple(waypoints[0])]
-    for a, b in zip(waypoints, waypoints[1:], strict=False):
+    for a, b in itertools.pairwise(waypoints):
         dense.extend(interpolate(a, b)[1:])
     return dense
 

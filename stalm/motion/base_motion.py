@@ -8,6 +8,7 @@ paths around movable objects are still found; when none is left the blockers are
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -28,7 +29,9 @@ class BasePath:
 
     @property
     def length(self) -> float:
-        return sum(math.dist(a[:2], b[:2]) for a, b in zip(self.corners, self.corners[1:], strict=False))
+        return sum(
+            math.dist(a[:2], b[:2]) for a, b in zip(self.corners, self.corners[1:], strict=False)
+        )
 
 
 @dataclass(frozen=True)
@@ -49,14 +52,16 @@ def densify(path: BasePath, resolution: float) -> list[SE2]:
     turn = wrap_angle(end_yaw - start_yaw)
     points: list[SE2] = [corners[0]]
     travelled = 0.0
-    for a, b in zip(corners, corners[1:], strict=False):
+    for a, b in itertools.pairwise(corners):
         seg = math.dist(a[:2], b[:2])
         steps = max(1, math.ceil(seg / resolution))
         for i in range(1, steps + 1):
             t = i / steps
             s = travelled + t * seg
             frac = s / total if total > 0 else 1.0
-            points.append((a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), start_yaw + frac * turn))
+            points.append(
+                (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), start_yaw + frac * turn)
+            )
         travelled += seg
     if total == 0.0:
         points.append(corners[-1])
@@ -77,7 +82,13 @@ class BasePlanner:
             self._roadmaps[open_doors] = load_or_build_roadmap(self.sim, open_doors, self.settings)
         return self._roadmaps[open_doors]
 
-    def route(self, start: SE2, goal: SE2, open_doors: frozenset[str], banned: Iterable[tuple[int, int]] = ()) -> list[int] | None:
+    def route(
+        self,
+        start: SE2,
+        goal: SE2,
+        open_doors: frozenset[str],
+        banned: Iterable[tuple[int, int]] = (),
+    ) -> list[int] | None:
         roadmap = self.roadmap(open_doors)
         a = roadmap.anchor_index(start[0], start[1])
         b = roadmap.anchor_index(goal[0], goal[1])
@@ -110,14 +121,18 @@ class BasePlanner:
             nodes = self.route(start, goal, open_doors, banned)
             if nodes is None:
                 return BasePathResult(None, frozenset(blockers))
-            blocked_edge, hits = self._first_blocked_edge(roadmap, nodes, start, goal, ignore, obstacle_filter)
+            blocked_edge, hits = self._first_blocked_edge(
+                roadmap, nodes, start, goal, ignore, obstacle_filter
+            )
             if blocked_edge is None:
                 return BasePathResult(self._path_from_nodes(roadmap, nodes, start, goal))
             blockers |= hits
             banned.add(blocked_edge)
         return BasePathResult(None, frozenset(blockers))
 
-    def _path_from_nodes(self, roadmap: Roadmap, nodes: list[int], start: SE2, goal: SE2) -> BasePath:
+    def _path_from_nodes(
+        self, roadmap: Roadmap, nodes: list[int], start: SE2, goal: SE2
+    ) -> BasePath:
         corners: list[SE2] = [start]
         for node in nodes[1:-1]:
             x, y = roadmap.nodes[node]
@@ -164,7 +179,7 @@ def _edge_waypoints(path: BasePath, resolution: float) -> list[list[SE2]]:
     corners = path.corners
     groups: list[list[SE2]] = []
     index = 0
-    for a, b in zip(corners, corners[1:], strict=False):
+    for a, b in itertools.pairwise(corners):
         seg = math.dist(a[:2], b[:2])
         steps = max(1, math.ceil(seg / resolution))
         groups.append(dense[index : index + steps + 1])

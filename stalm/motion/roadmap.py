@@ -63,7 +63,9 @@ class Roadmap:
     def edge_length(self, a: int, b: int) -> float:
         return float(np.linalg.norm(self.nodes[a] - self.nodes[b]))
 
-    def shortest_path(self, start: int, goal: int, blocked: Iterable[tuple[int, int]] = ()) -> list[int] | None:
+    def shortest_path(
+        self, start: int, goal: int, blocked: Iterable[tuple[int, int]] = ()
+    ) -> list[int] | None:
         """A* over the roadmap avoiding ``blocked`` edges (either direction)."""
         banned = {tuple(sorted(edge)) for edge in blocked}
         goal_xy = self.nodes[goal]
@@ -101,7 +103,9 @@ def anchor_poses(problem: ProblemSpec) -> list[tuple[float, float, float]]:
     return [tuple(pose) for pose in poses]  # type: ignore[misc]
 
 
-def static_scene_key(problem: ProblemSpec, open_doors: frozenset[str], settings: RoadmapSettings) -> str:
+def static_scene_key(
+    problem: ProblemSpec, open_doors: frozenset[str], settings: RoadmapSettings
+) -> str:
     """Content hash of everything a roadmap depends on."""
     content = {
         "format": ROADMAP_FORMAT,
@@ -130,14 +134,19 @@ class FootprintChecker:
         self.sim = sim
         c = sim.client
         col = p.createCollisionShape(
-            p.GEOM_CYLINDER, radius=settings.proxy_radius, height=settings.proxy_height,
-            collisionFramePosition=[0, 0, settings.proxy_height / 2 + 0.01], physicsClientId=c,
+            p.GEOM_CYLINDER,
+            radius=settings.proxy_radius,
+            height=settings.proxy_height,
+            collisionFramePosition=[0, 0, settings.proxy_height / 2 + 0.01],
+            physicsClientId=c,
         )
         self.body = int(p.createMultiBody(1.0, col, -1, [0, 0, -50.0], physicsClientId=c))
         self._ignore = [sim.bodies.base, sim.bodies.arm, *sim.bodies.objects.values()]
 
     def free(self, x: float, y: float) -> bool:
-        p.resetBasePositionAndOrientation(self.body, [x, y, 0.0], [0, 0, 0, 1], physicsClientId=self.sim.client)
+        p.resetBasePositionAndOrientation(
+            self.body, [x, y, 0.0], [0, 0, 0, 1], physicsClientId=self.sim.client
+        )
         return not self.sim.contacts_of([self.body], self._ignore)
 
     def segment_free(self, a: Sequence[float], b: Sequence[float], resolution: float) -> bool:
@@ -175,7 +184,10 @@ def build_roadmap(
                 unique_anchors.append(anchor)
         points: list[tuple[float, float]] = list(unique_anchors)
         attempts = 0
-        while len(points) < len(unique_anchors) + settings.samples and attempts < settings.samples * 20:
+        while (
+            len(points) < len(unique_anchors) + settings.samples
+            and attempts < settings.samples * 20
+        ):
             attempts += 1
             x = float(rng.uniform(x0 + margin, x1 - margin))
             y = float(rng.uniform(y0 + margin, y1 - margin))
@@ -210,7 +222,9 @@ def build_roadmap(
         checker.remove()
 
 
-def load_or_build_roadmap(sim: Sim, open_doors: frozenset[str], settings: RoadmapSettings) -> Roadmap:
+def load_or_build_roadmap(
+    sim: Sim, open_doors: frozenset[str], settings: RoadmapSettings
+) -> Roadmap:
     """The roadmap for this static scene and door setting, from the disk cache if present."""
     key = static_scene_key(sim.problem, open_doors, settings)
     path = cache_dir() / f"{key}.npz"

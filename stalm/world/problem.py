@@ -64,7 +64,9 @@ class Problem:
         return State(
             poses=tuple(sorted(poses)),
             open_doors=frozenset(),
-            robot=RobotConf.make(self.spec.robot.base, robot_model.CARRY_LIFT, robot_model.CARRY_ARM),
+            robot=RobotConf.make(
+                self.spec.robot.base, robot_model.CARRY_LIFT, robot_model.CARRY_ARM
+            ),
         )
 
 
@@ -77,9 +79,7 @@ def problems_dir() -> Path:
 
 
 def available_problems() -> list[Path]:
-    return sorted(
-        path for path in problems_dir().glob("*.yaml") if not path.name.startswith("_")
-    )
+    return sorted(path for path in problems_dir().glob("*.yaml") if not path.name.startswith("_"))
 
 
 def load_problem(name_or_path: str | Path) -> Problem:

@@ -50,5 +50,3 @@ def arm_mount(base: tuple[float, float, float], lift: float) -> ArmMount:
     return ArmMount(
         x + ARM_MOUNT_FORWARD * math.cos(yaw), y + ARM_MOUNT_FORWARD * math.sin(yaw), lift, yaw
     )
-
-

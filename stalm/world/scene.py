@@ -146,7 +146,11 @@ class Sim:
         )
         return int(
             p.createMultiBody(
-                0, col, vis, [door.hinge[0], door.hinge[1], 0.0], yaw_quat(door.closed_yaw),
+                0,
+                col,
+                vis,
+                [door.hinge[0], door.hinge[1], 0.0],
+                yaw_quat(door.closed_yaw),
                 physicsClientId=c,
             )
         )
@@ -168,31 +172,45 @@ class Sim:
             ]
             halves = [body_half, handle_half, handle_half]
             col = p.createCollisionShapeArray(
-                [p.GEOM_BOX] * 3, halfExtents=halves, collisionFramePositions=offsets,
+                [p.GEOM_BOX] * 3,
+                halfExtents=halves,
+                collisionFramePositions=offsets,
                 physicsClientId=c,
             )
             vis = p.createVisualShapeArray(
-                [p.GEOM_BOX] * 3, halfExtents=halves, visualFramePositions=offsets,
+                [p.GEOM_BOX] * 3,
+                halfExtents=halves,
+                visualFramePositions=offsets,
                 rgbaColors=[color, [0.15, 0.15, 0.15, 1], [0.15, 0.15, 0.15, 1]],
                 physicsClientId=c,
             )
         else:
             assert obj.radius is not None and obj.height is not None
             col = p.createCollisionShape(
-                p.GEOM_CYLINDER, radius=obj.radius, height=obj.height,
-                collisionFramePosition=[0, 0, obj.height / 2], physicsClientId=c,
+                p.GEOM_CYLINDER,
+                radius=obj.radius,
+                height=obj.height,
+                collisionFramePosition=[0, 0, obj.height / 2],
+                physicsClientId=c,
             )
             vis = p.createVisualShape(
-                p.GEOM_CYLINDER, radius=obj.radius, length=obj.height, rgbaColor=color,
-                visualFramePosition=[0, 0, obj.height / 2], physicsClientId=c,
+                p.GEOM_CYLINDER,
+                radius=obj.radius,
+                length=obj.height,
+                rgbaColor=color,
+                visualFramePosition=[0, 0, obj.height / 2],
+                physicsClientId=c,
             )
         return int(p.createMultiBody(0.1, col, vis, [0, 0, -10.0], physicsClientId=c))
 
     def _build_robot(self) -> None:
         c = self.client
         col = p.createCollisionShape(
-            p.GEOM_CYLINDER, radius=robot_model.BASE_RADIUS, height=robot_model.BASE_HEIGHT,
-            collisionFramePosition=[0, 0, robot_model.BASE_HEIGHT / 2], physicsClientId=c,
+            p.GEOM_CYLINDER,
+            radius=robot_model.BASE_RADIUS,
+            height=robot_model.BASE_HEIGHT,
+            collisionFramePosition=[0, 0, robot_model.BASE_HEIGHT / 2],
+            physicsClientId=c,
         )
         vis = p.createVisualShapeArray(
             [p.GEOM_CYLINDER, p.GEOM_BOX],
@@ -215,9 +233,7 @@ class Sim:
                 self.bodies.arm, self.bodies.base, link, -1, 0, physicsClientId=c
             )
         for joint in FINGER_JOINTS:
-            p.resetJointState(
-                self.bodies.arm, joint, robot_model.FINGER_OPENING, physicsClientId=c
-            )
+            p.resetJointState(self.bodies.arm, joint, robot_model.FINGER_OPENING, physicsClientId=c)
 
     # ------------------------------------------------------------------ state
     def set_state(self, state: State) -> None:
@@ -225,7 +241,9 @@ class Sim:
         c = self.client
         for name, pose in state.poses:
             p.resetBasePositionAndOrientation(
-                self.bodies.objects[name], [pose.x, pose.y, pose.z], yaw_quat(pose.yaw),
+                self.bodies.objects[name],
+                [pose.x, pose.y, pose.z],
+                yaw_quat(pose.yaw),
                 physicsClientId=c,
             )
         for door in self.problem.doors:
@@ -260,13 +278,17 @@ class Sim:
     def set_door_angle(self, name: str, yaw: float) -> None:
         door = self.problem.door(name)
         p.resetBasePositionAndOrientation(
-            self.bodies.doors[name], [door.hinge[0], door.hinge[1], 0.0], yaw_quat(yaw),
+            self.bodies.doors[name],
+            [door.hinge[0], door.hinge[1], 0.0],
+            yaw_quat(yaw),
             physicsClientId=self.client,
         )
 
     def door_is_open(self, name: str) -> bool:
         door = self.problem.door(name)
-        _, orn = p.getBasePositionAndOrientation(self.bodies.doors[name], physicsClientId=self.client)
+        _, orn = p.getBasePositionAndOrientation(
+            self.bodies.doors[name], physicsClientId=self.client
+        )
         yaw = quat_yaw(orn)
         return abs(math.remainder(yaw - door.open_yaw, math.tau)) < abs(
             math.remainder(yaw - door.closed_yaw, math.tau)
@@ -276,7 +298,9 @@ class Sim:
         """Place base, lift and arm; the held object (if any) follows the hand."""
         c = self.client
         x, y, yaw = conf.base
-        p.resetBasePositionAndOrientation(self.bodies.base, [x, y, 0.0], yaw_quat(yaw), physicsClientId=c)
+        p.resetBasePositionAndOrientation(
+            self.bodies.base, [x, y, 0.0], yaw_quat(yaw), physicsClientId=c
+        )
         self.set_arm(conf.base, conf.lift, conf.arm)
         self._robot = conf
 
@@ -295,7 +319,9 @@ class Sim:
         """Move base and arm rigidly to ``base`` keeping lift and joints (for base paths)."""
         c = self.client
         x, y, yaw = base
-        p.resetBasePositionAndOrientation(self.bodies.base, [x, y, 0.0], yaw_quat(yaw), physicsClientId=c)
+        p.resetBasePositionAndOrientation(
+            self.bodies.base, [x, y, 0.0], yaw_quat(yaw), physicsClientId=c
+        )
         mount = robot_model.arm_mount(base, self._robot.lift)
         p.resetBasePositionAndOrientation(
             self.bodies.arm, [mount.x, mount.y, mount.z], yaw_quat(mount.yaw), physicsClientId=c
@@ -339,12 +365,16 @@ class Sim:
         return self._held_yaw_offset
 
     def object_pose(self, name: str) -> Pose3:
-        pos, orn = p.getBasePositionAndOrientation(self.bodies.objects[name], physicsClientId=self.client)
+        pos, orn = p.getBasePositionAndOrientation(
+            self.bodies.objects[name], physicsClientId=self.client
+        )
         return (pos[0], pos[1], pos[2]), (orn[0], orn[1], orn[2], orn[3])
 
     def place_object(self, name: str, pose: ObjectPose) -> None:
         p.resetBasePositionAndOrientation(
-            self.bodies.objects[name], [pose.x, pose.y, pose.z], yaw_quat(pose.yaw),
+            self.bodies.objects[name],
+            [pose.x, pose.y, pose.z],
+            yaw_quat(pose.yaw),
             physicsClientId=self.client,
         )
 

@@ -20,8 +20,8 @@ from typing import Annotated, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from stalm.geometry.directions import DIRECTIONS
 from stalm.errors import StalmError
+from stalm.geometry.directions import DIRECTIONS
 
 Positive = Annotated[float, Field(gt=0)]
 Vec2 = tuple[float, float]
@@ -201,19 +201,19 @@ class ProblemSpec(_Spec):
     @model_validator(mode="after")
     def _names_are_consistent(self) -> ProblemSpec:
         seen: dict[str, str] = {}
-        groups = (
-            ("walls", self.walls),
-            ("regions", self.regions),
-            ("doors", self.doors),
-            ("objects", self.objects),
+        groups: tuple[tuple[str, tuple[str, ...]], ...] = (
+            ("walls", tuple(w.name for w in self.walls)),
+            ("regions", tuple(r.name for r in self.regions)),
+            ("doors", tuple(d.name for d in self.doors)),
+            ("objects", tuple(o.name for o in self.objects)),
         )
-        for group, items in groups:
-            for index, item in enumerate(items):
-                if item.name in seen:
+        for group, names in groups:
+            for index, name in enumerate(names):
+                if name in seen:
                     raise ValueError(
-                        f"{group}[{index}].name: '{item.name}' is already used by {seen[item.name]}"
+                        f"{group}[{index}].name: '{name}' is already used by {seen[name]}"
                     )
-                seen[item.name] = f"{group}[{index}]"
+                seen[name] = f"{group}[{index}]"
         regions = {r.name: r for r in self.regions}
         objects = {o.name for o in self.objects}
         for index, obj in enumerate(self.objects):

@@ -55,7 +55,9 @@ class RobotConf:
     arm: tuple[float, ...]
 
     @staticmethod
-    def make(base: tuple[float, ...] | list[float], lift: float, arm: tuple[float, ...] | list[float]) -> RobotConf:
+    def make(
+        base: tuple[float, ...] | list[float], lift: float, arm: tuple[float, ...] | list[float]
+    ) -> RobotConf:
         b = _q((base[0], base[1], wrap_angle(base[2])))
         return RobotConf((b[0], b[1], b[2]), quantize(lift), _q(arm))
 
@@ -137,7 +139,7 @@ class State:
         poses: dict[str, ObjectPose] | None = None,
         remove: str | None = None,
         robot: RobotConf | None = None,
-        held: Grasp | None | str = "keep",
+        held: Grasp | str | None = "keep",
         held_yaw_offset: float | None = None,
         open_door: str | None = None,
     ) -> State:
@@ -188,7 +190,9 @@ class State:
         held_raw = data.get("held")
         held = None
         if isinstance(held_raw, dict):
-            held = Grasp.make(held_raw["obj"], tuple(held_raw["position"]), tuple(held_raw["orientation"]))
+            held = Grasp.make(
+                held_raw["obj"], tuple(held_raw["position"]), tuple(held_raw["orientation"])
+            )
         doors = data.get("open_doors", [])
         assert isinstance(doors, list)
         offset = data.get("held_yaw_offset", 0.0)

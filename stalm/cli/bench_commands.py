@@ -1,0 +1,74 @@
+"""``stalm bench ...``: speed figures reported as numbers (never asserted in tests)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from stalm.cli.main import app
+
+bench_app = typer.Typer(help="Benchmarks: speed figures of the world, predicates, LLM and search.")
+app.add_typer(bench_app, name="bench")
+console = Console()
+
+
+@bench_app.command("world")
+def bench_world(
+    problems: Annotated[list[str] | None, typer.Argument(help="Problems (default P1..P6).")] = None,
+    attempts: Annotated[int, typer.Option(help="Attempts per operator per problem.")] = 60,
+    seed: Annotated[int, typer.Option(help="Seed of the random walk.")] = 0,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Also write the rows as JSON.")
+    ] = None,
+) -> None:
+    """Median and p90 time of one PICK, PLACE and OPEN attempt; collision checks per second."""
+    from stalm.experiments.bench_world import run
+
+    names = problems or ["P1", "P2", "P3", "P4", "P5", "P6"]
+    table = Table(title=f"one operator attempt ({attempts} per operator), ms")
+    for column in (
+        "problem",
+        "PICK med/p90",
+        "PLACE med/p90",
+        "OPEN med/p90",
+        "feasible P/P/O",
+        "checks/s (ops)",
+        "checks/s (raw)",
+    ):
+        table.add_column(column, justify="right")
+
+    def fmt(summary: object) -> str:
+        assert isinstance(summary, dict)
+        if not summary.get("n"):
+            return "-"
+        return f"{summary['median_ms']:.1f} / {summary['p90_ms']:.1f}"
+
+    def rate(summary: object) -> str:
+        assert isinstance(summary, dict)
+        return f"{summary.get('feasible_rate', 0.0):.2f}" if summary.get("n") else "-"
+
+    rows = []
+    with console.status("benchmarking...") as status:
+
+        def report(row: dict[str, object]) -> None:
+            status.update(f"done {row['problem']}")
+            table.add_row(
+                str(row["problem"]),
+                fmt(row["pick"]),
+                fmt(row["place"]),
+                fmt(row["open"]),
+                f"{rate(row['pick'])}/{rate(row['place'])}/{rate(row['open'])}",
+                f"{row['checks_per_second_in_operators']:.0f}",
+                f"{row['raw_checks_per_second']:.0f}",
+            )
+            rows.append(row)
+
+        run(names, attempts, seed, report)
+    console.print(table)
+    if json_out is not None:
+        json_out.write_text(json.dumps(rows, indent=2))

@@ -1,0 +1,103 @@
+"""``stalm problems`` and ``stalm render``: see what a problem holds and what it looks like."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from stalm.cli.main import app
+from stalm.errors import StalmError
+from stalm.world.problem import Problem, available_problems, load_problem
+from stalm.world.state import State
+
+console = Console()
+
+
+def _problem_row(problem: Problem) -> tuple[str, ...]:
+    spec = problem.spec
+    goal = ", ".join(str(g) for g in problem.goal)
+    return (
+        spec.name,
+        ", ".join(r.name for r in spec.regions),
+        ", ".join(o.name for o in spec.objects),
+        str(spec.placement_count),
+        goal,
+    )
+
+
+@app.command("problems")
+def problems_command(
+    file: Annotated[
+        list[Path] | None, typer.Option("--file", "-f", help="List these problem files instead.")
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
+) -> None:
+    """List the problems: regions, objects, placement count n(R) + 4 n(O), and goals."""
+    problems = (
+        [load_problem(path) for path in file]
+        if file
+        else [load_problem(p) for p in available_problems()]
+    )
+    if as_json:
+        rows = [
+            {
+                "name": pr.name,
+                "source": pr.source,
+                "regions": [r.name for r in pr.spec.regions],
+                "objects": [o.name for o in pr.spec.objects],
+                "doors": [d.name for d in pr.spec.doors],
+                "placements": pr.spec.placement_count,
+                "goal": [[g.obj, g.direction, g.ref] for g in pr.goal],
+            }
+            for pr in problems
+        ]
+        typer.echo(json.dumps(rows, indent=2))
+        return
+    table = Table(title="stalm problems", show_lines=True)
+    for column in ("problem", "regions", "objects", "placements", "goal"):
+        table.add_column(column, overflow="fold")
+    for pr in problems:
+        table.add_row(*_problem_row(pr))
+    console.print(table)
+
+
+@app.command("render")
+def render_command(
+    problem: Annotated[str, typer.Argument(help="Problem name (P5) or path to a problem file.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="PNG file to write.")] = Path(
+        "scene.png"
+    ),
+    state_file: Annotated[
+        Path | None, typer.Option("--state", help="Render this State (JSON, as in result files).")
+    ] = None,
+    size: Annotated[int, typer.Option(help="Pixel size of each view.")] = 640,
+) -> None:
+    """Write a top-down and a perspective image of the initial state (or a given State)."""
+    from stalm.viz.render import save_render
+    from stalm.world.scene import Sim
+
+    loaded = load_problem(problem)
+    state = loaded.initial_state
+    if state_file is not None:
+        state = _read_state(state_file)
+    with Sim(loaded.spec) as sim:
+        save_render(sim, state, output, size)
+    console.print(f"wrote {output}")
+
+
+def _read_state(path: Path) -> State:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as error:
+        raise StalmError(f"{path}: cannot read a State from it ({error})") from None
+    if isinstance(data, dict) and "state" in data:
+        data = data["state"]
+    try:
+        return State.from_json(data)
+    except (KeyError, TypeError, ValueError, AssertionError) as error:
+        raise StalmError(f"{path}: not a State ({error!r})") from None

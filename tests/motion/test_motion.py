@@ -1,0 +1,75 @@
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from stalm.geometry.transforms import gripper_rotation, quat_from_matrix
+from stalm.motion.arm_motion import MAX_JOINT_STEP, MAX_LIFT_STEP, interpolate
+from stalm.motion.base_motion import BasePath, densify
+from stalm.motion.ik import solve_ik
+from stalm.motion.roadmap import RoadmapSettings, load_or_build_roadmap, static_scene_key
+from stalm.world.problem import Problem
+
+
+def test_closed_door_separates_the_rooms_and_open_door_joins_them(domain_factory) -> None:
+    domain = domain_factory("P5")
+    spec = domain.problem.spec
+    start = spec.robot.base
+    kitchen = spec.region("counter1").base_pose
+    hall = spec.region("counter3").base_pose
+    planner = domain.base_planner
+    assert planner.route(start, hall, frozenset()) is not None
+    assert planner.route(start, kitchen, frozenset()) is None
+    assert planner.route(start, kitchen, frozenset({"kitchen_door"})) is not None
+
+
+def test_roadmap_is_cached_on_disk_by_scene_content(
+    problems: dict[str, Problem], domain_factory
+) -> None:
+    domain = domain_factory("P2")
+    settings = RoadmapSettings()
+    first = load_or_build_roadmap(domain.sim, frozenset(), settings)
+    again = load_or_build_roadmap(domain.sim, frozenset(), settings)
+    assert np.array_equal(first.nodes, again.nodes) and first.adjacency == again.adjacency
+    # P1 and P2 share walls, regions and doors: the same roadmap key
+    assert static_scene_key(problems["P1"].spec, frozenset(), settings) == static_scene_key(
+        problems["P2"].spec, frozenset(), settings
+    )
+    assert static_scene_key(problems["P5"].spec, frozenset(), settings) != static_scene_key(
+        problems["P2"].spec, frozenset(), settings
+    )
+
+
+def test_densified_paths_respect_the_resolution() -> None:
+    path = BasePath(((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (1.0, 1.0, math.pi / 2)))
+    points = densify(path, 0.05)
+    assert points[0] == path.corners[0] and points[-1] == path.corners[-1]
+    gaps = [math.dist(a[:2], b[:2]) for a, b in itertools.pairwise(points)]
+    assert max(gaps) <= 0.05 + 1e-9
+
+
+def test_arm_interpolation_steps_are_small_enough() -> None:
+    start = (0.8, 0.0, -1.0, 0.0, -2.0, 0.0, 1.5, 0.7)
+    end = (1.1, 1.0, 0.5, -0.4, -1.0, 0.3, 2.0, 0.0)
+    confs = interpolate(start, end)
+    assert confs[0] == start and confs[-1] == end
+    for a, b in itertools.pairwise(confs):
+        assert abs(b[0] - a[0]) <= MAX_LIFT_STEP + 1e-12
+        assert max(abs(y - x) for x, y in zip(a[1:], b[1:], strict=True)) <= MAX_JOINT_STEP + 1e-12
+
+
+def test_ik_reaches_a_reachable_gripper_pose_and_is_deterministic(domain_factory) -> None:
+    domain = domain_factory("P2")
+    sim = domain.sim
+    sim.set_state(domain.problem.initial_state)
+    stand = domain.problem.spec.region("counter1").base_pose
+    target = ((-4.5, 0.75, 1.12), quat_from_matrix(gripper_rotation(stand[2], 0.3)))
+    first = solve_ik(sim, stand, target, np.random.default_rng(3))
+    again = solve_ik(sim, stand, target, np.random.default_rng(3))
+    assert first is not None and first == again
+    sim.set_arm(stand, first.lift, first.arm)
+    assert math.dist(sim.gripper_pose()[0], target[0]) < 0.005
+    unreachable = ((-4.45, 0.75, 3.5), target[1])
+    assert solve_ik(sim, stand, unreachable, np.random.default_rng(3), attempts=2) is None
