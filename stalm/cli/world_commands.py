@@ -84,13 +84,14 @@ def render_command(
     loaded = load_problem(problem)
     state = loaded.initial_state
     if state_file is not None:
-        state = _read_state(state_file)
+        state = read_state_file(state_file)
     with Sim(loaded.spec) as sim:
         save_render(sim, state, output, size)
     console.print(f"wrote {output}")
 
 
-def _read_state(path: Path) -> State:
+def read_state_file(path: Path) -> State:
+    """A State from a JSON file (a bare State, or any JSON object with a 'state' field)."""
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as error:

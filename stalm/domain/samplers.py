@@ -22,7 +22,6 @@ from stalm.geometry.transforms import (
     compose,
     gripper_rotation,
     invert,
-    matrix_from_quat,
     quat_from_matrix,
     se2_to_local,
     se2_to_world,
@@ -31,20 +30,26 @@ from stalm.geometry.transforms import (
 )
 from stalm.motion.arm_motion import first_collision, interpolate_waypoints
 from stalm.motion.base_motion import BasePath, BasePlanner
+from stalm.motion.grasps import (
+    APPROACH_DISTANCE,
+    LIFT_DISTANCE,
+    PITCH_RANGE,
+    PLACE_CLEARANCE,
+    YAW_RANGE,
+    draw_placement,
+    gripper_target,
+    nearest_grasp_point,
+    offset_pose,
+    sample_grasp_angles,
+)
 from stalm.motion.ik import IKSolution, solve_ik, solve_ik_from
 from stalm.world import robot as robot_model
 from stalm.world.relations import direction_between, supporting_region
 from stalm.world.scene import Sim
-from stalm.world.spec import GRILL_HANDLE_REACH, ObjectSpec, RegionSpec
+from stalm.world.spec import RegionSpec
 from stalm.world.state import Grasp, ObjectPose, RobotConf, State
 
-CARRY_CONF = (robot_model.CARRY_LIFT, *robot_model.CARRY_ARM)
-APPROACH_DISTANCE = 0.08
-"""The gripper comes in (and backs out) along its approach axis over this distance (m)."""
-LIFT_DISTANCE = 0.05
-"""A grasped object is raised this much before the arm folds back (m)."""
-PLACE_CLEARANCE = 0.12
-"""A held object is lowered onto its placement from this height above it (m)."""
+CARRY_CONF = robot_model.CARRY_CONF
 
 
 @dataclass(frozen=True)
@@ -55,39 +60,9 @@ class SamplerSettings:
     place_tries: int = 40
     open_tries: int = 1
     placement_draws: int = 41
-    pitch_range: tuple[float, float] = (0.0, math.radians(45.0))
-    yaw_range: tuple[float, float] = (math.radians(-60.0), math.radians(60.0))
+    pitch_range: tuple[float, float] = PITCH_RANGE
+    yaw_range: tuple[float, float] = YAW_RANGE
     ik_attempts: int = 4
-
-
-def grasp_points(obj: ObjectSpec) -> list[tuple[float, float, float]]:
-    """Candidate grasp points in the object's frame (origin at its bottom centre)."""
-    if obj.shape == "grill":
-        assert obj.size is not None
-        _sx, sy, sz = obj.size
-        side = sy / 2 + GRILL_HANDLE_REACH * 0.6
-        return [(0.0, side, sz * 0.75), (0.0, -side, sz * 0.75)]
-    assert obj.radius is not None and obj.height is not None
-    if obj.shape == "disc":
-        # a plate is taken at its rim from above: the grasp point sits just over the rim
-        r, z = obj.radius * 0.85, obj.height + 0.012
-        return [(r, 0.0, z), (-r, 0.0, z), (0.0, r, z), (0.0, -r, z)]
-    return [(0.0, 0.0, min(obj.height / 2, 0.09))]
-
-
-def nearest_grasp_point(
-    obj: ObjectSpec, pose: ObjectPose, base: tuple[float, float, float]
-) -> tuple[float, float, float]:
-    """The object's grasp point nearest the standing pose, in world coordinates."""
-    best: tuple[float, float, float] | None = None
-    best_distance = math.inf
-    for gx, gy, gz in grasp_points(obj):
-        wx, wy = se2_to_world((pose.x, pose.y, pose.yaw), gx, gy)
-        distance = math.hypot(wx - base[0], wy - base[1])
-        if distance < best_distance - 1e-9:
-            best, best_distance = (wx, wy, pose.z + gz), distance
-    assert best is not None
-    return best
 
 
 class Failures:
@@ -156,13 +131,7 @@ class Samplers:
     ) -> tuple[float, ...]:
         """The configuration with the gripper backed off along its approach axis or raised;
         falls back to the target configuration itself when IK cannot reach the offset pose."""
-        rot = gripper_axis(target)
-        x, y, z = target[0]
-        moved: Pose3 = (
-            (x - backoff * rot[0], y - backoff * rot[1], z - backoff * rot[2] + raise_by),
-            target[1],
-        )
-        near = solve_ik_from(self.sim, base, moved, solution)
+        near = solve_ik_from(self.sim, base, offset_pose(target, backoff, raise_by), solution)
         return _conf(near if near is not None else solution)
 
     # ------------------------------------------------------------------ PICK
@@ -183,9 +152,10 @@ class Samplers:
         body = self.sim.bodies.objects[action.obj]
         failures = Failures()
         for _ in range(self.settings.pick_tries):
-            pitch = float(rng.uniform(*self.settings.pitch_range))
-            yaw = float(rng.uniform(*self.settings.yaw_range))
-            target: Pose3 = (point, quat_from_matrix(gripper_rotation(stand[2] + yaw, pitch)))
+            pitch, yaw = sample_grasp_angles(
+                rng, self.settings.pitch_range, self.settings.yaw_range
+            )
+            target = gripper_target(point, stand[2], pitch, yaw)
             self.sim.set_state(state)
             self.sim.set_base_only(stand)
             solution = solve_ik(self.sim, stand, target, rng, self.settings.ik_attempts)
@@ -194,7 +164,7 @@ class Samplers:
                 continue
             grasp_conf = _conf(solution)
             pre_conf = self.offset_conf(stand, target, solution, backoff=APPROACH_DISTANCE)
-            approach = [CARRY_CONF, pre_conf, grasp_conf]
+            approach = [*robot_model.unfold(grasp_conf), pre_conf, grasp_conf]
             hits = self.arm_motion_free(stand, approach, {body})
             if hits:
                 failures.add(
@@ -206,7 +176,8 @@ class Samplers:
             grasp = Grasp.make(action.obj, grasp_pose[0], grasp_pose[1])
             up_conf = self.offset_conf(stand, target, solution, raise_by=LIFT_DISTANCE)
             self.sim.attach(grasp)
-            hits = self.arm_motion_free(stand, [grasp_conf, up_conf, CARRY_CONF], set())
+            lift_off = [grasp_conf, up_conf, *robot_model.fold(grasp_conf)]
+            hits = self.arm_motion_free(stand, lift_off, set())
             self.sim.attach(None)
             if hits:
                 failures.add("arm_collision", f"lifting '{action.obj}' collides", self.names(hits))
@@ -217,7 +188,7 @@ class Samplers:
                 yaw=yaw,
                 grasp=grasp,
                 grasp_conf=grasp_conf,
-                arm_waypoints=(*approach, up_conf, CARRY_CONF),
+                arm_waypoints=(*approach, *lift_off[1:]),
             )
         return failures.result(f"no grasp of '{action.obj}' found")
 
@@ -239,20 +210,11 @@ class Samplers:
     ) -> ObjectPose | None:
         """Uniform (x, y) on the region's usable area, rejected until it lies in ``dir``."""
         obj = self.problem.object(action.obj)
-        hx, hy, _ = obj.half_extents
-        rel = wrap_angle(yaw - region.yaw)
-        ex = abs(math.cos(rel)) * hx + abs(math.sin(rel)) * hy
-        ey = abs(math.sin(rel)) * hx + abs(math.cos(rel)) * hy
-        ux, uy = region.usable_size
-        half_u, half_v = ux / 2 - ex, uy / 2 - ey
-        if half_u < 0 or half_v < 0:
-            return None
         ref_pose = state.pose(action.ref) if action.direction != "on" else None
         for _ in range(self.settings.placement_draws):
-            u = float(rng.uniform(-half_u, half_u))
-            v = float(rng.uniform(-half_v, half_v))
-            x, y = se2_to_world((*region.center, region.yaw), u, v)
-            pose = ObjectPose.make(x, y, region.top, yaw)
+            pose = draw_placement(obj, region, yaw, rng)
+            if pose is None:
+                return None
             if ref_pose is None or direction_between(region, pose, ref_pose) == action.direction:
                 return pose
         return None
@@ -301,14 +263,16 @@ class Samplers:
             place_conf = _conf(solution)
             above_conf = self.offset_conf(stand, hand, solution, raise_by=PLACE_CLEARANCE)
             self.sim.attach(state.held, state.held_yaw_offset)
-            hits = self.arm_motion_free(stand, [CARRY_CONF, above_conf, place_conf], set())
+            lower = [*robot_model.unfold(place_conf), above_conf, place_conf]
+            hits = self.arm_motion_free(stand, lower, set())
             if hits:
                 failures.add("arm_collision", f"placing '{action.obj}' collides", self.names(hits))
                 continue
             self.sim.attach(None)
             self.sim.place_object(action.obj, placement)
             back_conf = self.offset_conf(stand, hand, solution, backoff=APPROACH_DISTANCE)
-            hits = self.arm_motion_free(stand, [place_conf, back_conf, CARRY_CONF], {body})
+            retreat = [place_conf, back_conf, *robot_model.fold(place_conf)]
+            hits = self.arm_motion_free(stand, retreat, {body})
             if hits:
                 failures.add(
                     "arm_collision", f"retreating from '{action.obj}' collides", self.names(hits)
@@ -318,7 +282,7 @@ class Samplers:
                 base_path=path,
                 placement=placement,
                 place_conf=place_conf,
-                arm_waypoints=(CARRY_CONF, above_conf, place_conf, back_conf, CARRY_CONF),
+                arm_waypoints=(*lower, *retreat[1:]),
             )
         return failures.result(f"no placement of '{action.obj}' found")
 
@@ -360,9 +324,12 @@ class Samplers:
                     failures.add("no_ik", f"no IK solution to the handle of '{action.door}'")
                     continue
                 handle_conf = (solution.lift, *solution.arm)
-                hits = self.arm_motion_free(
-                    stand, [CARRY_CONF, handle_conf, CARRY_CONF], {door_body}
-                )
+                reach = [
+                    *robot_model.unfold(handle_conf),
+                    handle_conf,
+                    *robot_model.fold(handle_conf),
+                ]
+                hits = self.arm_motion_free(stand, reach, {door_body})
                 if hits:
                     failures.add(
                         "arm_collision",
@@ -372,7 +339,7 @@ class Samplers:
                     continue
                 self.sim.set_robot(RobotConf.make(stand, CARRY_CONF[0], CARRY_CONF[1:]))
                 self.sim.set_door(action.door, True)
-                hits = self.sim.contacts_of([door_body])
+                hits = {b for b in self.sim.contacts_of([door_body]) if not self.sim.is_static(b)}
                 self.sim.set_door(action.door, False)
                 if hits:
                     failures.add(
@@ -382,19 +349,13 @@ class Samplers:
                 return OpenParams(
                     base_path=path,
                     handle_conf=handle_conf,
-                    arm_waypoints=(CARRY_CONF, handle_conf, CARRY_CONF),
+                    arm_waypoints=tuple(reach),
                 )
         return failures.result(f"'{action.door}' could not be opened")
 
 
 def _conf(solution: IKSolution) -> tuple[float, ...]:
     return (solution.lift, *solution.arm)
-
-
-def gripper_axis(target: Pose3) -> tuple[float, float, float]:
-    """The approach direction (+z of the gripper frame) of a gripper pose."""
-    rot = matrix_from_quat(target[1])
-    return (float(rot[0, 2]), float(rot[1, 2]), float(rot[2, 2]))
 
 
 def _fmt(pose: tuple[float, float, float]) -> str:

@@ -170,6 +170,7 @@ def build_roadmap(
 ) -> Roadmap:
     """Sample and connect a roadmap with the doors in ``open_doors`` open, the rest closed."""
     problem = sim.problem
+    doors_before = {door.name: sim.door_is_open(door.name) for door in problem.doors}
     for door in problem.doors:
         sim.set_door(door.name, door.name in open_doors)
     checker = FootprintChecker(sim, settings)
@@ -220,6 +221,8 @@ def build_roadmap(
         )
     finally:
         checker.remove()
+        for name, was_open in doors_before.items():
+            sim.set_door(name, was_open)
 
 
 def load_or_build_roadmap(

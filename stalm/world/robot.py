@@ -50,3 +50,19 @@ def arm_mount(base: tuple[float, float, float], lift: float) -> ArmMount:
     return ArmMount(
         x + ARM_MOUNT_FORWARD * math.cos(yaw), y + ARM_MOUNT_FORWARD * math.sin(yaw), lift, yaw
     )
+
+
+CARRY_CONF = (CARRY_LIFT, *CARRY_ARM)
+"""Lift and arm joints while driving."""
+
+
+def unfold(conf: tuple[float, ...]) -> list[tuple[float, ...]]:
+    """Waypoints from the driving configuration up (or down) to ``conf``'s lift height with
+    the arm still folded: the lift moves first, so the arm never sweeps forward under a shelf
+    on its way up."""
+    return [CARRY_CONF, (conf[0], *CARRY_ARM)]
+
+
+def fold(conf: tuple[float, ...]) -> list[tuple[float, ...]]:
+    """Waypoints back from ``conf``'s lift height to the driving configuration, arm first."""
+    return [(conf[0], *CARRY_ARM), CARRY_CONF]

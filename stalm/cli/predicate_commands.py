@@ -1,0 +1,90 @@
+"""``stalm predicates``, ``stalm prompt`` and ``stalm parse-reply``: what the model is told, and
+what it answered, for a problem."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from stalm.cli.main import app
+from stalm.cli.text_commands import format_parsed_reply_json, format_prompt, parse_reply_file
+from stalm.cli.world_commands import read_state_file
+from stalm.domain.vocabulary import Vocabulary
+from stalm.llm.problem_prompt import ordered_literals, problem_prompt
+from stalm.llm.prompt import PromptOptions
+from stalm.predicates.literals import GroundLiteral
+from stalm.world.problem import Problem, load_problem
+
+console = Console()
+
+ProblemArg = Annotated[str, typer.Argument(help="Problem name (P5) or path to a problem file.")]
+StateOpt = Annotated[
+    Path | None, typer.Option("--state", help="Use this State (JSON) instead of the initial one.")
+]
+
+
+def compute_literals(problem: Problem, state_file: Path | None) -> list[GroundLiteral]:
+    """The predicates of the problem's initial state (or of a given State), in prompt order."""
+    from stalm.motion.base_motion import BasePlanner
+    from stalm.predicates.engine import PredicateEngine
+    from stalm.world.scene import Sim
+
+    state = read_state_file(state_file) if state_file is not None else problem.initial_state
+    with Sim(problem.spec) as sim, console.status("computing predicates (motion planning)..."):
+        engine = PredicateEngine(problem, sim, BasePlanner(sim))
+        cache = engine.compute(state)
+    return ordered_literals(problem, cache.literals)
+
+
+@app.command("predicates")
+def predicates_command(
+    problem: ProblemArg,
+    state_file: StateOpt = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON tuples.")] = False,
+) -> None:
+    """Print the geometric predicates (occlusions computed by motion planning) of a state."""
+    loaded = load_problem(problem)
+    literals = compute_literals(loaded, state_file)
+    if as_json:
+        typer.echo(json.dumps([list(lit.as_tuple()) for lit in literals], indent=1))
+        return
+    for literal in literals:
+        typer.echo(str(literal))
+    typer.echo(f"# {len(literals)} literals", err=True)
+
+
+@app.command("prompt")
+def prompt_command(
+    problem: ProblemArg,
+    state_file: StateOpt = None,
+    no_occlusion: Annotated[
+        bool, typer.Option("--no-occlusion", help="Ablation: leave out the occlusion predicates.")
+    ] = False,
+    no_challenges: Annotated[
+        bool, typer.Option("--no-challenges", help="Ablation: do not ask for the challenges.")
+    ] = False,
+) -> None:
+    """Print the paper's prompt (system and user message, Figure 13 format) for a problem."""
+    loaded = load_problem(problem)
+    literals = compute_literals(loaded, state_file)
+    options = PromptOptions(occlusion_predicates=not no_occlusion, ask_challenges=not no_challenges)
+    if no_occlusion:
+        literals = [
+            lit for lit in literals if lit.name not in ("PickOccludedBy", "PlaceOccludedBy")
+        ]
+    typer.echo(format_prompt(problem_prompt(loaded, literals, options)))
+
+
+@app.command("parse-reply")
+def parse_reply_command(
+    reply: Annotated[Path, typer.Argument(help="A text file holding a model's reply.")],
+    problem: Annotated[str, typer.Option("--problem", "-p", help="The problem it answers.")],
+) -> None:
+    """Print the task plan read from a reply, and every step error, as JSON."""
+    loaded = load_problem(problem)
+    parsed = parse_reply_file(reply, Vocabulary.from_problem(loaded))
+    typer.echo(format_parsed_reply_json(parsed))

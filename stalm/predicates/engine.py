@@ -1,0 +1,539 @@
+"""Geometric predicates of a State, computed with motion planning, with Appendix A's cache.
+
+Literals: HandAvailable, RobotHolding(o), IsClosed(door), AtPosition(o, dir, ref),
+PickOccludedBy(o, x) and PlaceOccludedBy(o, dir, ref, x).
+
+Occlusion follows §3.2: the motion for an action is planned *ignoring movable objects* (base
+path to the standing pose, grasp or placement by the operator's sampler, IK, arm motion) and
+every movable object or closed door its swept volume touches is an occluder. Each action gets
+a fixed number of statically feasible samples; the occluders reported are those of the sample
+with the fewest (ties: the first), so an object counts as occluded only if no sampled motion
+avoids everything. Draws come from a generator seeded by the action's own key, so the samples
+of an action do not depend on what else was computed before.
+
+Caching (Appendix A): every sampled motion keeps its swept collisions, and literals are a pure
+function of those and of which objects are obstacles now. After PICK nothing is swept again
+(the picked object stops being an obstacle and its placements are resampled for the grasp
+actually taken); after OPEN nothing is swept (an open door stops being an obstacle); after
+PLACE the moved object's own actions are resampled, and only motions that pass near its new
+pose are swept again, against it alone. :meth:`PredicateEngine.update` equals
+:meth:`PredicateEngine.compute` on the new state, literal for literal.
+
+Base paths start from the problem's initial robot pose, not the robot's current one, so the
+literals do not depend on where the robot last stood: the robot changes rooms only through an
+open door, and an open door occludes nothing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from stalm.domain.actions import RELATIVE_DIRECTIONS, DiscreteAction, Pick, Place
+from stalm.geometry.transforms import Pose3, compose, invert, quat_yaw, yaw_quat
+from stalm.motion.arm_motion import interpolate_waypoints
+from stalm.motion.base_motion import BasePath, BasePlanner
+from stalm.motion.grasps import (
+    APPROACH_DISTANCE,
+    LIFT_DISTANCE,
+    PITCH_RANGE,
+    PLACE_CLEARANCE,
+    YAW_RANGE,
+    draw_placement,
+    gripper_target,
+    nearest_grasp_point,
+    offset_pose,
+    sample_grasp_angles,
+)
+from stalm.motion.ik import IKSolution, solve_ik, solve_ik_from
+from stalm.predicates.literals import GroundLiteral
+from stalm.predicates.sweeps import (
+    ArmSegment,
+    ObjectAt,
+    Segment,
+    SweptMotion,
+    base_segment,
+    sweep,
+    sweep_near,
+)
+from stalm.world.problem import Problem
+from stalm.world.relations import direction_between, supporting_region
+from stalm.world.robot import fold, unfold
+from stalm.world.scene import Sim
+from stalm.world.spec import RegionSpec
+from stalm.world.state import Grasp, ObjectPose, State
+
+PARKED = ObjectPose(0.0, 0.0, -20.0, 0.0)
+"""Where the held object's body waits while predicates are computed (far below the floor)."""
+
+
+@dataclass(frozen=True)
+class PredicateSettings:
+    """Sample counts per action; the authors checked 12 samples per predicate."""
+
+    pick_samples: int = 12
+    placements_per_region: int = 8
+    placement_draws: int = 24
+    targeted_draws: int = 41
+    targeted_samples: int = 1
+    ik_attempts: int = 4
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class PlacementSample:
+    pose: ObjectPose
+    motion: SweptMotion
+
+
+@dataclass(frozen=True)
+class PickRecord:
+    """The sampled picks of one resting object: the statically feasible motions, and the grasp
+    that placements of the object use (the first feasible one; None if it is unreachable)."""
+
+    pose: ObjectPose
+    region: str
+    grasp: Grasp | None
+    yaw_offset: float
+    motions: tuple[SweptMotion, ...]
+
+
+@dataclass
+class PredicateCache:
+    """Everything computed for one state; :meth:`PredicateEngine.update` derives the next."""
+
+    state: State
+    literals: frozenset[GroundLiteral]
+    base: dict[str, SweptMotion] = field(default_factory=dict)
+    picks: dict[str, PickRecord] = field(default_factory=dict)
+    placements: dict[tuple[str, str], tuple[PlacementSample, ...]] = field(default_factory=dict)
+    targeted: dict[tuple[str, str, str], tuple[PlacementSample, ...]] = field(default_factory=dict)
+    grasps: dict[str, tuple[Grasp, float]] = field(default_factory=dict)
+    unreachable: set[str] = field(default_factory=set)
+    swept_motions: int = 0
+
+
+def _stable_seed(*parts: object) -> int:
+    digest = hashlib.sha256(repr(parts).encode()).digest()
+    return int.from_bytes(digest[:8], "little")
+
+
+class PredicateEngine:
+    """Computes and updates the literals of states of one problem."""
+
+    def __init__(
+        self,
+        problem: Problem,
+        sim: Sim,
+        base_planner: BasePlanner,
+        settings: PredicateSettings | None = None,
+    ) -> None:
+        self.problem = problem
+        self.spec = problem.spec
+        self.sim = sim
+        self.base_planner = base_planner
+        self.settings = settings or PredicateSettings()
+        self._all_open = frozenset(d.name for d in self.spec.doors)
+        self._static = frozenset(sim.bodies.walls.values()) | frozenset(sim.bodies.regions.values())
+        self._extent = {
+            o.name: math.hypot(o.half_extents[0], o.half_extents[1]) for o in self.spec.objects
+        }
+        self._names = {b: n for n, b in sim.bodies.objects.items()} | {
+            b: n for n, b in sim.bodies.doors.items()
+        }
+
+    # ------------------------------------------------------------------ public
+    def compute(self, state: State) -> PredicateCache:
+        """All literals of ``state`` from scratch."""
+        cache = PredicateCache(state=state, literals=frozenset())
+        self._prepare_world(state)
+        for region in self.spec.regions:
+            cache.base[region.name] = self._base_motion(region)
+        for name, pose in state.poses:
+            cache.picks[name] = self._pick_record(name, pose)
+        self._refresh_grasps(cache)
+        for obj in cache.grasps:
+            for region in self.spec.regions:
+                cache.placements[(obj, region.name)] = self._placements(cache, obj, region)
+        cache.literals = self._derive(cache)
+        return cache
+
+    def update(self, cache: PredicateCache, action: DiscreteAction, state: State) -> PredicateCache:
+        """The literals of ``state``, reached from ``cache.state`` by the feasible ``action``."""
+        new = PredicateCache(
+            state=state,
+            literals=frozenset(),
+            base=dict(cache.base),
+            picks=dict(cache.picks),
+            placements=dict(cache.placements),
+            targeted=dict(cache.targeted),
+        )
+        self._prepare_world(state)
+        if isinstance(action, Pick):
+            new.picks.pop(action.obj, None)
+            self._forget_object(new, action.obj)
+            self._refresh_grasps(new)
+            self._resample_placements_of(new, action.obj)
+        elif isinstance(action, Place):
+            self._forget_object(new, action.obj)
+            self._resweep_near(new, action.obj, state.pose(action.obj))
+            new.picks[action.obj] = self._pick_record(action.obj, state.pose(action.obj))
+            self._refresh_grasps(new)
+            self._resample_placements_of(new, action.obj)
+            new.targeted = {k: v for k, v in new.targeted.items() if k[2] != action.obj}
+        else:
+            # an open door is no obstacle: the derivation below stops counting it
+            self._refresh_grasps(new)
+        new.literals = self._derive(new)
+        new.swept_motions += cache.swept_motions
+        return new
+
+    # ------------------------------------------------------------------ world
+    def _prepare_world(self, state: State) -> None:
+        """Set the sim to ``state`` with the held object parked out of the way."""
+        self.sim.set_state(state)
+        if state.held is not None:
+            self.sim.attach(None)
+            self.sim.place_object(state.held.obj, PARKED)
+
+    def _sweep(self, segments: tuple[Segment, ...]) -> SweptMotion | None:
+        """Sweep; None if the motion hits the static scene (no moving of objects frees it)."""
+        bodies, fan = sweep(self.sim, segments)
+        if bodies & self._static:
+            return None
+        held = next((s.held for s in segments if isinstance(s, ArmSegment) and s.held), None)
+        reach = self._extent[held.obj] + math.dist((0, 0, 0), held.position) if held else 0.0
+        names = frozenset(self._names[b] for b in bodies if b in self._names)
+        return SweptMotion(segments, names, fan, reach)
+
+    def _obstacles(self, state: State) -> frozenset[str]:
+        closed = frozenset(d.name for d in self.spec.doors if not state.is_open(d.name))
+        return frozenset(name for name, _ in state.poses) | closed
+
+    # ------------------------------------------------------------------ motions
+    def _base_motion(self, region: RegionSpec) -> SweptMotion:
+        start = self.spec.robot.base
+        nodes = self.base_planner.route(start, region.base_pose, self._all_open)
+        if nodes is None:
+            corners: tuple[tuple[float, float, float], ...] = (start, region.base_pose)
+        else:
+            roadmap = self.base_planner.roadmap(self._all_open)
+            inner = tuple(
+                (float(roadmap.nodes[n][0]), float(roadmap.nodes[n][1]), start[2])
+                for n in nodes[1:-1]
+            )
+            corners = (start, *inner, region.base_pose)
+        segment = base_segment(BasePath(corners), self.base_planner.resolution)
+        bodies, _ = sweep(self.sim, (segment,))
+        return SweptMotion(
+            (segment,), frozenset(self._names[b] for b in bodies if b in self._names)
+        )
+
+    def _ik(
+        self, stand: tuple[float, float, float], target: Pose3, rng: np.random.Generator
+    ) -> IKSolution | None:
+        self.sim.attach(None)
+        return solve_ik(self.sim, stand, target, rng, self.settings.ik_attempts)
+
+    def _offset(
+        self,
+        stand: tuple[float, float, float],
+        target: Pose3,
+        solution: IKSolution,
+        backoff: float = 0.0,
+        raise_by: float = 0.0,
+    ) -> tuple[float, ...]:
+        near = solve_ik_from(self.sim, stand, offset_pose(target, backoff, raise_by), solution)
+        chosen = near if near is not None else solution
+        return (chosen.lift, *chosen.arm)
+
+    def _pick_record(self, obj: str, pose: ObjectPose) -> PickRecord:
+        region_name = supporting_region(self.spec, pose)
+        assert region_name is not None, f"'{obj}' rests on no region"
+        region = self.spec.region(region_name)
+        stand = region.base_pose
+        spec = self.spec.object(obj)
+        point = nearest_grasp_point(spec, pose, stand)
+        rng = np.random.default_rng(_stable_seed(self.settings.seed, "pick", obj))
+        motions: list[SweptMotion] = []
+        grasp: Grasp | None = None
+        object_pose = ((pose.x, pose.y, pose.z), yaw_quat(pose.yaw))
+        for _ in range(self.settings.pick_samples):
+            pitch, yaw = sample_grasp_angles(rng, PITCH_RANGE, YAW_RANGE)
+            target = gripper_target(point, stand[2], pitch, yaw)
+            solution = self._ik(stand, target, rng)
+            if solution is None:
+                continue
+            grasp_conf = (solution.lift, *solution.arm)
+            pre = self._offset(stand, target, solution, backoff=APPROACH_DISTANCE)
+            up = self._offset(stand, target, solution, raise_by=LIFT_DISTANCE)
+            this_grasp = Grasp.make(obj, *compose(invert(target), object_pose))
+            segments: tuple[Segment, ...] = (
+                ArmSegment(stand, _dense([*unfold(grasp_conf), pre, grasp_conf]), None, obj),
+                ArmSegment(stand, _dense([grasp_conf, up, *fold(grasp_conf)]), this_grasp, None),
+            )
+            self.sim.place_object(obj, pose)
+            motion = self._sweep(segments)
+            self.sim.place_object(obj, pose)
+            if motion is None:
+                continue
+            motions.append(replace(motion, hits=motion.hits - {obj}))
+            if grasp is None:
+                grasp = this_grasp
+        return PickRecord(pose, region_name, grasp, _wrap(pose.yaw - stand[2]), tuple(motions))
+
+    def _refresh_grasps(self, cache: PredicateCache) -> None:
+        """The grasp each object's placements use: the one in hand, or its first feasible pick."""
+        cache.grasps = {}
+        held = cache.state.held
+        if held is not None:
+            cache.grasps[held.obj] = (held, cache.state.held_yaw_offset)
+        for obj, record in cache.picks.items():
+            if record.grasp is not None:
+                cache.grasps[obj] = (record.grasp, record.yaw_offset)
+
+    def _placement_motion(
+        self, obj: str, grasp: Grasp, region: RegionSpec, pose: ObjectPose, rng: np.random.Generator
+    ) -> PlacementSample | None:
+        stand = region.base_pose
+        hand = compose(((pose.x, pose.y, pose.z), yaw_quat(pose.yaw)), invert(grasp.pose))
+        solution = self._ik(stand, hand, rng)
+        if solution is None:
+            return None
+        place_conf = (solution.lift, *solution.arm)
+        above = self._offset(stand, hand, solution, raise_by=PLACE_CLEARANCE)
+        back = self._offset(stand, hand, solution, backoff=APPROACH_DISTANCE)
+        original = self.sim.object_pose(obj)
+        segments: tuple[Segment, ...] = (
+            ArmSegment(stand, _dense([*unfold(place_conf), above, place_conf]), grasp, None),
+            ObjectAt(obj, pose),
+            ArmSegment(stand, _dense([place_conf, back, *fold(place_conf)]), None, obj),
+        )
+        motion = self._sweep(segments)
+        self.sim.place_object(obj, _pose_of(original))
+        if motion is None:
+            return None
+        return PlacementSample(pose, replace(motion, hits=motion.hits - {obj}))
+
+    def _placements(
+        self, cache: PredicateCache, obj: str, region: RegionSpec
+    ) -> tuple[PlacementSample, ...]:
+        grasp, offset = cache.grasps[obj]
+        yaw = _wrap(region.base_pose[2] + offset)
+        spec = self.spec.object(obj)
+        rng = np.random.default_rng(
+            _stable_seed(self.settings.seed, "place", obj, region.name, grasp)
+        )
+        samples: list[PlacementSample] = []
+        for _ in range(self.settings.placement_draws):
+            if len(samples) >= self.settings.placements_per_region:
+                break
+            pose = draw_placement(spec, region, yaw, rng)
+            if pose is None:
+                break
+            sample = self._placement_motion(obj, grasp, region, pose, rng)
+            if sample is not None:
+                samples.append(sample)
+        return tuple(samples)
+
+    def _targeted(
+        self, cache: PredicateCache, obj: str, direction: str, ref: str, region: RegionSpec
+    ) -> tuple[PlacementSample, ...]:
+        key = (obj, direction, ref)
+        if key in cache.targeted:
+            return cache.targeted[key]
+        grasp, offset = cache.grasps[obj]
+        yaw = _wrap(region.base_pose[2] + offset)
+        spec = self.spec.object(obj)
+        ref_pose = cache.state.pose(ref)
+        rng = np.random.default_rng(
+            _stable_seed(self.settings.seed, "target", obj, direction, ref, grasp, ref_pose)
+        )
+        samples: list[PlacementSample] = []
+        for _ in range(self.settings.targeted_draws):
+            if len(samples) >= self.settings.targeted_samples:
+                break
+            pose = draw_placement(spec, region, yaw, rng)
+            if pose is None:
+                break
+            if direction_between(region, pose, ref_pose) != direction:
+                continue
+            sample = self._placement_motion(obj, grasp, region, pose, rng)
+            if sample is not None:
+                samples.append(sample)
+        cache.targeted[key] = tuple(samples)
+        return cache.targeted[key]
+
+    # ------------------------------------------------------------------ updates
+    def _forget_object(self, cache: PredicateCache, obj: str) -> None:
+        """Drop every collision with ``obj`` (it left its pose) and its own samples."""
+
+        def strip(motion: SweptMotion) -> SweptMotion:
+            return motion if obj not in motion.hits else replace(motion, hits=motion.hits - {obj})
+
+        cache.base = {k: strip(m) for k, m in cache.base.items()}
+        cache.picks = {
+            k: replace(r, motions=tuple(strip(m) for m in r.motions))
+            for k, r in cache.picks.items()
+        }
+        cache.placements = {
+            k: tuple(PlacementSample(s.pose, strip(s.motion)) for s in v)
+            for k, v in cache.placements.items()
+            if k[0] != obj
+        }
+        cache.targeted = {
+            k: tuple(PlacementSample(s.pose, strip(s.motion)) for s in v)
+            for k, v in cache.targeted.items()
+            if k[0] != obj
+        }
+
+    def _resweep_near(self, cache: PredicateCache, obj: str, pose: ObjectPose) -> None:
+        """Test motions passing near ``obj``'s new pose against it, and it alone."""
+        body = self.sim.bodies.objects[obj]
+
+        radius = self._extent[obj]
+
+        def again(motion: SweptMotion) -> SweptMotion:
+            if not motion.near(pose.x, pose.y, radius):
+                return motion
+            cache.swept_motions += 1
+            self.sim.place_object(obj, pose)
+            hit = sweep_near(self.sim, motion, body, pose.x, pose.y, radius)
+            self._restore_subjects(cache.state, motion)
+            self.sim.place_object(obj, pose)
+            return replace(motion, hits=motion.hits | {obj}) if hit else motion
+
+        cache.base = {k: again(m) for k, m in cache.base.items()}
+        cache.picks = {
+            k: replace(r, motions=tuple(again(m) for m in r.motions))
+            for k, r in cache.picks.items()
+        }
+        cache.placements = {
+            k: tuple(PlacementSample(s.pose, again(s.motion)) for s in v)
+            for k, v in cache.placements.items()
+        }
+        cache.targeted = {
+            k: tuple(PlacementSample(s.pose, again(s.motion)) for s in v)
+            for k, v in cache.targeted.items()
+        }
+
+    def _restore_subjects(self, state: State, motion: SweptMotion) -> None:
+        """Put back the objects a sweep carried or placed (a pick's or placement's subject)."""
+        for segment in motion.segments:
+            moved = segment.obj if isinstance(segment, ObjectAt) else None
+            if isinstance(segment, ArmSegment) and segment.held is not None:
+                moved = segment.held.obj
+            if moved is None:
+                continue
+            if state.has_pose(moved):
+                self.sim.place_object(moved, state.pose(moved))
+            else:
+                self.sim.place_object(moved, PARKED)
+
+    def _resample_placements_of(self, cache: PredicateCache, obj: str) -> None:
+        cache.placements = {k: v for k, v in cache.placements.items() if k[0] != obj}
+        cache.targeted = {k: v for k, v in cache.targeted.items() if k[0] != obj}
+        if obj in cache.grasps:
+            for region in self.spec.regions:
+                cache.placements[(obj, region.name)] = self._placements(cache, obj, region)
+
+    # ------------------------------------------------------------------ literals
+    def _derive(self, cache: PredicateCache) -> frozenset[GroundLiteral]:
+        state = cache.state
+        literals: set[GroundLiteral] = set()
+        if state.held is None:
+            literals.add(GroundLiteral("HandAvailable"))
+        else:
+            literals.add(GroundLiteral("RobotHolding", (state.held.obj,)))
+        for door in self.spec.doors:
+            if not state.is_open(door.name):
+                literals.add(GroundLiteral("IsClosed", (door.name,)))
+        regions_of: dict[str, str] = {}
+        for name, pose in state.poses:
+            support = supporting_region(self.spec, pose)
+            if support is not None:
+                regions_of[name] = support
+                literals.add(GroundLiteral("AtPosition", (name, "on", support)))
+        for name, support in regions_of.items():
+            for other, other_support in regions_of.items():
+                if other != name and other_support == support:
+                    direction = direction_between(
+                        self.spec.region(support), state.pose(name), state.pose(other)
+                    )
+                    literals.add(GroundLiteral("AtPosition", (name, direction, other)))
+        obstacles = self._obstacles(state)
+        cache.unreachable = set()
+        for obj, record in cache.picks.items():
+            base = cache.base[record.region].hits
+            best = _fewest((m.hits | base) & (obstacles - {obj}) for m in record.motions)
+            if best is None:
+                cache.unreachable.add(f"pick {obj}")
+                continue
+            literals.update(GroundLiteral("PickOccludedBy", (obj, x)) for x in best)
+        for obj in cache.grasps:
+            for region in self.spec.regions:
+                samples = cache.placements.get((obj, region.name), ())
+                self._place_literals(
+                    cache, literals, obstacles, obj, "on", region.name, region, samples
+                )
+                for ref, ref_region in regions_of.items():
+                    if ref == obj or ref_region != region.name:
+                        continue
+                    ref_pose = state.pose(ref)
+                    for direction in RELATIVE_DIRECTIONS:
+                        matching = tuple(
+                            s
+                            for s in samples
+                            if direction_between(region, s.pose, ref_pose) == direction
+                        )
+                        if not matching:
+                            matching = self._targeted(cache, obj, direction, ref, region)
+                        self._place_literals(
+                            cache, literals, obstacles, obj, direction, ref, region, matching
+                        )
+        self._prepare_world(state)
+        return frozenset(literals)
+
+    def _place_literals(
+        self,
+        cache: PredicateCache,
+        literals: set[GroundLiteral],
+        obstacles: frozenset[str],
+        obj: str,
+        direction: str,
+        ref: str,
+        region: RegionSpec,
+        samples: tuple[PlacementSample, ...],
+    ) -> None:
+        base = cache.base[region.name].hits
+        best = _fewest((s.motion.hits | base) & (obstacles - {obj}) for s in samples)
+        if best is None:
+            cache.unreachable.add(f"place {obj} {direction} {ref}")
+            return
+        literals.update(GroundLiteral("PlaceOccludedBy", (obj, direction, ref, x)) for x in best)
+
+
+def _fewest(sets: object) -> frozenset[str] | None:
+    best: frozenset[str] | None = None
+    for hits in sets:  # type: ignore[attr-defined]
+        if best is None or len(hits) < len(best):
+            best = frozenset(hits)
+            if not best:
+                break
+    return best
+
+
+def _dense(waypoints: list[tuple[float, ...]]) -> tuple[tuple[float, ...], ...]:
+    return tuple(interpolate_waypoints(waypoints))
+
+
+def _wrap(angle: float) -> float:
+    return math.remainder(angle, math.tau)
+
+
+def _pose_of(pose3: Pose3) -> ObjectPose:
+    (x, y, z), orn = pose3
+    return ObjectPose.make(x, y, z, quat_yaw(orn))

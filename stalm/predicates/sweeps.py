@@ -1,0 +1,178 @@
+"""Motions planned without movable objects, and what their swept volume touches.
+
+Occlusion predicates (paper §3.2) plan a motion ignoring movables, then test the swept volume
+against each movable object and closed door. A :class:`SweptMotion` keeps the dense motion so
+that when one object moves, only that object needs testing again (Appendix A's "cache all the
+collisions and reuse them"). Collision with one obstacle does not depend on the others, so a
+motion's hit set is exactly the union of per-obstacle tests.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from stalm.motion.base_motion import SE2, BasePath, densify
+from stalm.world import robot as robot_model
+from stalm.world.scene import Sim
+from stalm.world.state import Grasp, ObjectPose
+
+Conf = tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class ArmSegment:
+    """Arm configurations at one standing pose, carrying ``held`` (or nothing), during which
+    ``ignore`` (the object being grasped or released) is not an obstacle."""
+
+    base: SE2
+    confs: tuple[Conf, ...]
+    held: Grasp | None = None
+    ignore: str | None = None
+
+
+@dataclass(frozen=True)
+class BaseSegment:
+    """The base driving a path with the arm folded and the hand empty."""
+
+    waypoints: tuple[SE2, ...]
+
+
+@dataclass(frozen=True)
+class ObjectAt:
+    """An object standing at a pose (a placement): overlaps count as occlusions."""
+
+    obj: str
+    pose: ObjectPose
+
+
+Segment = ArmSegment | BaseSegment | ObjectAt
+
+
+Fan = tuple[tuple[float, float, float, float], ...]
+"""Arm reach lines (mount x, y, hand x, y) along a motion, seen from above."""
+
+ARM_BULGE = 0.35
+"""How far (m) any arm link strays, seen from above, from the line between the arm's mount and
+its hand (the elbow bulges sideways), with a margin."""
+
+
+@dataclass(frozen=True)
+class SweptMotion:
+    """A motion and the names of the movable objects and doors its swept volume touches.
+
+    ``fan`` records where the arm reached at every configuration of its arm segments, so
+    :meth:`near` and :func:`sweep_near` can tell cheaply what an object at a new pose could
+    touch.
+    """
+
+    segments: tuple[Segment, ...]
+    hits: frozenset[str]
+    fan: Fan = ()
+    held_reach: float = 0.0
+
+    def near(self, x: float, y: float, radius: float) -> bool:
+        """Could this motion touch an object of ``radius`` standing at (x, y)? Conservative."""
+        margin = radius + self.held_reach
+        for segment in self.segments:
+            if isinstance(segment, BaseSegment):
+                reach = BASE_FOOTPRINT + margin
+                points = [(w[0], w[1]) for w in segment.waypoints]
+            elif isinstance(segment, ObjectAt):
+                reach = 0.5 + margin
+                points = [(segment.pose.x, segment.pose.y)]
+            else:
+                continue
+            if any(math.hypot(px - x, py - y) < reach for px, py in points):
+                return True
+        reach = ARM_BULGE + margin
+        return any(_point_segment_distance(x, y, line) < reach for line in self.fan)
+
+
+BASE_FOOTPRINT = 0.75
+"""Radius (m) around the base centre that the robot with its folded arm occupies."""
+
+
+def _point_segment_distance(x: float, y: float, line: tuple[float, float, float, float]) -> float:
+    ax, ay, bx, by = line
+    dx, dy = bx - ax, by - ay
+    length2 = dx * dx + dy * dy
+    t = 0.0 if length2 == 0.0 else max(0.0, min(1.0, ((x - ax) * dx + (y - ay) * dy) / length2))
+    return math.hypot(x - (ax + t * dx), y - (ay + t * dy))
+
+
+def base_segment(path: BasePath, resolution: float) -> BaseSegment:
+    return BaseSegment(tuple(densify(path, resolution)))
+
+
+def sweep(sim: Sim, segments: Iterable[Segment]) -> tuple[frozenset[int], Fan]:
+    """Every body touched anywhere along ``segments`` (besides the robot and what it holds),
+    and the arm's reach lines.
+
+    The caller sets the world (which objects stand where); this moves only the robot, the
+    object it holds and, for an :class:`ObjectAt`, that object.
+    """
+    hits: set[int] = set()
+    fan: list[tuple[float, float, float, float]] = []
+    robot = (sim.bodies.base, sim.bodies.arm)
+    for segment in segments:
+        if isinstance(segment, ObjectAt):
+            sim.attach(None)
+            sim.place_object(segment.obj, segment.pose)
+            hits |= sim.contacts_of([sim.bodies.objects[segment.obj]], robot)
+        elif isinstance(segment, ArmSegment):
+            sim.attach(segment.held)
+            ignore = {sim.bodies.objects[segment.ignore]} if segment.ignore is not None else set()
+            sim.set_base_only(segment.base)
+            for conf in segment.confs:
+                sim.set_arm(segment.base, conf[0], conf[1:])
+                hits |= sim.robot_contacts(ignore)
+                mount = robot_model.arm_mount(segment.base, conf[0])
+                hand = sim.gripper_pose()[0]
+                fan.append((mount.x, mount.y, hand[0], hand[1]))
+        else:
+            sim.attach(None)
+            for pose in segment.waypoints:
+                sim.set_base_only(pose)
+                hits |= sim.robot_contacts()
+    sim.attach(None)
+    return frozenset(hits), tuple(fan)
+
+
+def sweep_near(sim: Sim, motion: SweptMotion, body: int, x: float, y: float, radius: float) -> bool:
+    """Does ``motion`` touch ``body`` standing at (x, y)? Only the configurations whose reach
+    passes within range of it are tested, against it alone."""
+    margin = radius + motion.held_reach
+    lines = iter(motion.fan)
+    hit = False
+    for segment in motion.segments:
+        if isinstance(segment, ObjectAt):
+            sim.attach(None)
+            sim.place_object(segment.obj, segment.pose)
+            hit = sim.touches([sim.bodies.objects[segment.obj]], body)
+        elif isinstance(segment, ArmSegment):
+            sim.attach(segment.held)
+            ignore = {sim.bodies.objects[segment.ignore]} if segment.ignore is not None else set()
+            sim.set_base_only(segment.base)
+            for conf in segment.confs:
+                line = next(lines)
+                if _point_segment_distance(x, y, line) >= ARM_BULGE + margin:
+                    continue
+                sim.set_arm(segment.base, conf[0], conf[1:])
+                if body not in ignore and sim.touches(sim.robot_bodies(), body):
+                    hit = True
+                    break
+        else:
+            sim.attach(None)
+            for pose in segment.waypoints:
+                if math.hypot(pose[0] - x, pose[1] - y) >= BASE_FOOTPRINT + margin:
+                    continue
+                sim.set_base_only(pose)
+                if sim.touches(sim.robot_bodies(), body):
+                    hit = True
+                    break
+        if hit:
+            break
+    sim.attach(None)
+    return hit
