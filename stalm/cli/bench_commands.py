@@ -72,3 +72,53 @@ def bench_world(
     console.print(table)
     if json_out is not None:
         json_out.write_text(json.dumps(rows, indent=2))
+
+
+@bench_app.command("predicates")
+def bench_predicates(
+    problems: Annotated[list[str] | None, typer.Argument(help="Problems (default P1..P6).")] = None,
+    seed: Annotated[int, typer.Option(help="Seed for the actions taken.")] = 0,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Also write the rows as JSON.")
+    ] = None,
+) -> None:
+    """Full predicate computation vs the cached update after an OPEN, a PICK and a PLACE."""
+    from stalm.experiments.bench_predicates import run
+
+    names = problems or ["P1", "P2", "P3", "P4", "P5", "P6"]
+    table = Table(title="predicates: full computation and cached updates (s)")
+    for column in (
+        "problem",
+        "literals",
+        "full (s0)",
+        "OPEN upd/full",
+        "PICK upd/full",
+        "PLACE upd/full",
+    ):
+        table.add_column(column, justify="right")
+
+    def cell(entry: object) -> str:
+        if not isinstance(entry, dict):
+            return "-"
+        mark = "" if entry["equal"] else " (differs!)"
+        return f"{entry['update_s']:.3f} / {entry['full_s']:.2f} = {entry['speedup']:.0f}x{mark}"
+
+    rows = []
+    with console.status("benchmarking predicates...") as status:
+
+        def report(row: dict[str, object]) -> None:
+            status.update(f"done {row['problem']}")
+            table.add_row(
+                str(row["problem"]),
+                str(row["literals"]),
+                f"{row['full_s']:.2f}",
+                cell(row.get("open")),
+                cell(row.get("pick")),
+                cell(row.get("place")),
+            )
+            rows.append(row)
+
+        run(names, seed, report)
+    console.print(table)
+    if json_out is not None:
+        json_out.write_text(json.dumps(rows, indent=2))

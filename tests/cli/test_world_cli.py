@@ -52,3 +52,23 @@ def test_user_errors_are_one_line_and_exit_2(monkeypatch, capsys) -> None:
     assert run_cli(monkeypatch, "render", "P42") == 2
     err = capsys.readouterr().err
     assert "error:" in err and "unknown problem 'P42'" in err and "Traceback" not in err
+
+
+def test_predicates_prompt_and_parse_reply_commands(monkeypatch, capsys, tmp_path: Path) -> None:
+    assert run_cli(monkeypatch, "predicates", "P2", "--json") == 0
+    literals = [tuple(x) for x in json.loads(capsys.readouterr().out)]
+    assert ("HandAvailable", "") in literals
+    assert ("PickOccludedBy", "salter", "bottle2") in literals
+
+    assert run_cli(monkeypatch, "prompt", "P2", "--no-challenges") == 0
+    prompt = capsys.readouterr().out
+    assert "(:goal (and (AtPosition salter on table2) (AtPosition salter right_of bottle1) ) )" in prompt
+    assert "('PickOccludedBy', 'salter', 'bottle2')" in prompt
+    assert "Possible Challenges" not in prompt
+
+    reply = tmp_path / "reply.txt"
+    reply.write_text("plan = [('pick', 'bottle2'), ('place', 'bottle2', 'on', 'counter9')]")
+    assert run_cli(monkeypatch, "parse-reply", str(reply), "--problem", "P2") == 0
+    parsed = json.loads(capsys.readouterr().out)
+    assert parsed["plan"] == [["pick", "bottle2"]]
+    assert parsed["errors"] and "counter9" in json.dumps(parsed["errors"])
