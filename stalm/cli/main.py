@@ -25,19 +25,29 @@ ERROR_CONSOLE = Console(stderr=True)
 
 
 def _register_commands() -> None:
-    """Import the command modules; each adds its commands to :data:`app`."""
-    from stalm.cli import bench_commands, world_commands  # noqa: F401
+    """Import the command modules; each adds its commands to :data:`app` (once)."""
+    from stalm.cli import (  # noqa: F401
+        bench_commands,
+        llm_commands,
+        predicate_commands,
+        solve_commands,
+        world_commands,
+    )
+
+    if not any(group.name == "llm" for group in app.registered_groups):
+        app.add_typer(llm_commands.llm_app, name="llm")
 
 
 def main() -> None:
-    """Entry point used by the console script: run the app, turn user errors into one line."""
+    """Entry point used by the console script: run the app, turn user errors into one line.
+
+    Typer's own handling reports usage mistakes (exit code 2); a :class:`StalmError` raised by
+    a command (bad file, unknown name, unreachable server) is printed as one ``error:`` line
+    with exit code 2 instead of a traceback.
+    """
     _register_commands()
     try:
-        app(standalone_mode=False)
+        app()
     except StalmError as error:
         ERROR_CONSOLE.print(f"[bold red]error:[/] {error}", highlight=False)
         sys.exit(2)
-    except typer.Exit as done:
-        sys.exit(done.exit_code)
-    except typer.Abort:
-        sys.exit(1)

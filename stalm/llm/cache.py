@@ -257,7 +257,9 @@ class CachedBackend:
     It looks like its inner backend (same ``name``, ``model`` and ``description``), so wrapping
     changes nothing but cost. Missing sample indices are requested in contiguous runs with the
     run's first index as seed offset, so a cached batch extended later is the batch the model
-    would have produced in one go (sample ``i`` always uses ``seed + i``).
+    would have produced in one go (sample ``i`` always uses ``seed + i``). Replies served
+    from the cache keep the token counts and latency of the call that produced them (what the
+    result would have cost); ``from_cache`` tells that nothing was spent now.
     """
 
     def __init__(
@@ -311,9 +313,7 @@ class CachedBackend:
             )
         new_samples = []
         for start, length in _contiguous_runs(missing):
-            sub_request = dataclasses.replace(
-                request, n=length, seed=request.sample_seed(start)
-            )
+            sub_request = dataclasses.replace(request, n=length, seed=request.sample_seed(start))
             response = self._inner.complete(sub_request)
             if len(response.replies) != length:
                 raise StalmError(
@@ -323,9 +323,7 @@ class CachedBackend:
             for offset, reply in enumerate(response.replies):
                 index = start + offset
                 replies[index] = reply
-                new_samples.append(
-                    CachedSample(keys[index], backend, model, request, index, reply)
-                )
+                new_samples.append(CachedSample(keys[index], backend, model, request, index, reply))
         self._cache.put_many(new_samples)
         return LLMResponse(
             replies=tuple(reply for reply in replies if reply is not None),

@@ -22,6 +22,7 @@ would ramble forever reaches the end of the grammar and stops.
 
 from __future__ import annotations
 
+import hashlib
 import json
 from dataclasses import dataclass
 from typing import Any
@@ -29,11 +30,41 @@ from typing import Any
 from stalm.domain.actions import RELATIVE_DIRECTIONS
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.llm.backends.base import OutputConstraint
 
 CHALLENGES_HEADER = "## Possible Challenges for unachieved goals based on current state ##"
 PLAN_HEADER = "## Plan for unachieved goals ##"
 CONSTRAINT_NAME = "stalm_reply"
+
+
+@dataclass(frozen=True)
+class OutputConstraint:
+    """A restriction of what the model may write, in the two forms servers understand.
+
+    llama.cpp (embedded, or its server) reads a GBNF grammar; OpenAI and servers that follow
+    its structured-output API read a JSON schema. Both are built together from one problem's
+    vocabulary (:func:`stalm.llm.constraints.build_constraint`) so a backend can pick the form
+    it supports. The schema is kept as canonical JSON text so the value stays hashable and its
+    fingerprint is stable across processes and machines (the reply cache keys on it).
+    """
+
+    name: str
+    gbnf: str
+    json_schema_text: str
+
+    def json_schema(self) -> dict[str, Any]:
+        """The JSON schema as a fresh dict (callers may mutate it)."""
+        schema: dict[str, Any] = json.loads(self.json_schema_text)
+        return schema
+
+    @property
+    def fingerprint(self) -> str:
+        """A short stable digest of both forms: the cache's notion of "same constraint"."""
+        digest = hashlib.sha256()
+        for part in (self.name, self.gbnf, self.json_schema_text):
+            digest.update(part.encode("utf-8"))
+            digest.update(b"\x00")
+        return digest.hexdigest()[:16]
+
 
 # Free text may use printable ASCII except '#', so a challenge line cannot open a new section.
 _GBNF_TEXT_CHAR = r"[\x20-\x22\x24-\x7E]"
@@ -110,13 +141,13 @@ def build_gbnf(vocabulary: Vocabulary, limits: ConstraintLimits | None = None) -
         "root ::= challenges-head challenge-line"
         f"{{1,{limits.max_challenge_lines}}} plan-head "
         f'"plan = [" step (step-sep step){{0,{limits.max_steps - 1}}} "]"',
-        f'challenges-head ::= {_gbnf_literal(CHALLENGES_HEADER + chr(10))}',
+        f"challenges-head ::= {_gbnf_literal(CHALLENGES_HEADER + chr(10))}",
         f'challenge-line ::= [1-9] ". " text-char{{1,{limits.max_line_chars}}} "\\n"',
         f"text-char ::= {_GBNF_TEXT_CHAR}",
         f"plan-head ::= {_gbnf_literal(chr(10) + PLAN_HEADER + chr(10))}",
         'step-sep ::= "," [ \\n]?',
         "step ::= " + " | ".join(step_kinds),
-        "pick ::= \"('pick', \" movable \")\"",
+        'pick ::= "(\'pick\', " movable ")"',
         f"movable ::= {_gbnf_alternatives(movables)}",
     ]
     if "place" in step_kinds:
@@ -135,9 +166,9 @@ def build_gbnf(vocabulary: Vocabulary, limits: ConstraintLimits | None = None) -
                 others = tuple(m for m in movables if m != obj)
                 lines.append(f"others-{i} ::= {_gbnf_alternatives(others)}")
             head = _gbnf_literal(f"('place', '{obj}', ")
-            lines.append(f"place-{i} ::= {head} ({' | '.join(destinations)}) \")\"")
+            lines.append(f'place-{i} ::= {head} ({" | ".join(destinations)}) ")"')
     if "open" in step_kinds:
-        lines.append("open ::= \"('open', \" door \")\"")
+        lines.append('open ::= "(\'open\', " door ")"')
         lines.append(f"door ::= {_gbnf_alternatives(vocabulary.doors)}")
     return "\n".join(lines) + "\n"
 
@@ -227,7 +258,9 @@ def json_reply_to_plan_text(json_text: str) -> str:
     try:
         data = json.loads(json_text)
     except json.JSONDecodeError as error:
-        raise StalmError(f"structured reply is not valid JSON ({error}): {json_text[:80]!r}")
+        raise StalmError(
+            f"structured reply is not valid JSON ({error}): {json_text[:80]!r}"
+        ) from error
     if not isinstance(data, dict):
         raise StalmError("structured reply must be a JSON object with 'challenges' and 'plan'")
     challenges = data.get("challenges", "")
@@ -246,8 +279,7 @@ def json_reply_to_plan_text(json_text: str) -> str:
             )
         steps.append("(" + ", ".join(repr(arg) for arg in step) + ")")
     return (
-        f"{CHALLENGES_HEADER}\n{challenges.strip()}\n\n"
-        f"{PLAN_HEADER}\nplan = [{', '.join(steps)}]\n"
+        f"{CHALLENGES_HEADER}\n{challenges.strip()}\n\n{PLAN_HEADER}\nplan = [{', '.join(steps)}]\n"
     )
 
 
@@ -256,6 +288,7 @@ __all__ = [
     "CONSTRAINT_NAME",
     "PLAN_HEADER",
     "ConstraintLimits",
+    "OutputConstraint",
     "build_constraint",
     "build_gbnf",
     "build_json_schema",

@@ -62,7 +62,10 @@ def test_predicates_prompt_and_parse_reply_commands(monkeypatch, capsys, tmp_pat
 
     assert run_cli(monkeypatch, "prompt", "P2", "--no-challenges") == 0
     prompt = capsys.readouterr().out
-    assert "(:goal (and (AtPosition salter on table2) (AtPosition salter right_of bottle1) ) )" in prompt
+    assert (
+        "(:goal (and (AtPosition salter on table2) (AtPosition salter right_of bottle1) ) )"
+        in prompt
+    )
     assert "('PickOccludedBy', 'salter', 'bottle2')" in prompt
     assert "Possible Challenges" not in prompt
 

@@ -1,20 +1,16 @@
-"""Shared fixtures for the language-model tests: a problem vocabulary, a scripted HTTP server
-standing in for an OpenAI-compatible one, and the embedded model (loaded once per session)."""
+"""Fixtures for the language-model tests: a problem vocabulary, a scripted server double,
+and an environment cleared of a developer's LLM settings."""
 
 from __future__ import annotations
 
-import json
-import socket
-import threading
-import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-from typing import Any
+from pathlib import Path
 
 import pytest
 
 from stalm.domain.vocabulary import Vocabulary
+
+from .llm_doubles import ScriptedHTTPServerDouble
 
 
 @pytest.fixture
@@ -27,123 +23,6 @@ def p5_vocabulary() -> Vocabulary:
     )
 
 
-def free_port() -> int:
-    """A TCP port on 127.0.0.1 that nothing listens on (bound, then released)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-@dataclass
-class ScriptedReply:
-    """One canned HTTP answer of the scripted test server."""
-
-    status: int = 200
-    body: Any = None  # dict/list -> JSON; str -> sent as is
-    delay_s: float = 0.0
-    headers: dict[str, str] = field(default_factory=dict)
-
-
-def chat_completion(
-    contents: list[str], prompt_tokens: int = 10, completion_tokens: int = 6
-) -> dict[str, Any]:
-    """A minimal OpenAI chat-completion body with one choice per content."""
-    return {
-        "id": "chatcmpl-test",
-        "object": "chat.completion",
-        "created": 0,
-        "model": "test-model",
-        "choices": [
-            {
-                "index": i,
-                "message": {"role": "assistant", "content": text},
-                "finish_reason": "stop",
-            }
-            for i, text in enumerate(contents)
-        ],
-        "usage": {
-            "prompt_tokens": prompt_tokens,
-            "completion_tokens": completion_tokens,
-            "total_tokens": prompt_tokens + completion_tokens,
-        },
-    }
-
-
-class ScriptedHTTPServerDouble:
-    """A test double of an OpenAI-compatible server on a real loopback socket.
-
-    POST answers come from ``script`` in order (the last one repeats) unless ``responder``
-    is set, which builds the answer from the request body. Every request body is recorded.
-    """
-
-    def __init__(self) -> None:
-        self.script: list[ScriptedReply] = []
-        self.responder: Any = None
-        self.requests: list[dict[str, Any]] = []
-        self.paths: list[str] = []
-        self._lock = threading.Lock()
-        double = self
-
-        class Handler(BaseHTTPRequestHandler):
-            def log_message(self, format: str, *args: Any) -> None:  # quiet
-                pass
-
-            def _answer(self, reply: ScriptedReply) -> None:
-                if reply.delay_s:
-                    time.sleep(reply.delay_s)
-                payload = (
-                    reply.body if isinstance(reply.body, str) else json.dumps(reply.body)
-                ).encode()
-                try:
-                    self.send_response(reply.status)
-                    content_type = "text/plain" if isinstance(reply.body, str) else (
-                        "application/json"
-                    )
-                    self.send_header("Content-Type", content_type)
-                    self.send_header("Content-Length", str(len(payload)))
-                    for name, value in reply.headers.items():
-                        self.send_header(name, value)
-                    self.end_headers()
-                    self.wfile.write(payload)
-                except (BrokenPipeError, ConnectionResetError):
-                    pass  # the client gave up (timeout tests)
-
-            def do_GET(self) -> None:
-                double.paths.append(self.path)
-                self._answer(ScriptedReply(body={"object": "list", "data": [
-                    {"id": "listed-model", "object": "model", "created": 0, "owned_by": "t"}
-                ]}))
-
-            def do_POST(self) -> None:
-                length = int(self.headers.get("Content-Length", "0"))
-                body = json.loads(self.rfile.read(length) or b"{}")
-                with double._lock:
-                    double.requests.append(body)
-                    double.paths.append(self.path)
-                    if double.responder is not None:
-                        reply = double.responder(body)
-                    else:
-                        reply = double.script.pop(0) if len(double.script) > 1 else (
-                            double.script[0]
-                        )
-                self._answer(reply)
-
-        self._server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-        self._server.daemon_threads = True
-        self._thread = threading.Thread(target=self._server.serve_forever, daemon=True)
-
-    @property
-    def base_url(self) -> str:
-        return f"http://127.0.0.1:{self._server.server_address[1]}/v1"
-
-    def start(self) -> None:
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._server.shutdown()
-        self._server.server_close()
-
-
 @pytest.fixture
 def scripted_server() -> Iterator[ScriptedHTTPServerDouble]:
     server = ScriptedHTTPServerDouble()
@@ -152,9 +31,9 @@ def scripted_server() -> Iterator[ScriptedHTTPServerDouble]:
     server.stop()
 
 
-@pytest.fixture(autouse=True)
-def _no_llm_environment(monkeypatch: pytest.MonkeyPatch, tmp_path: Any) -> None:
-    """Tests must not pick up a developer's real server, key or reply cache."""
+@pytest.fixture
+def clean_llm_env(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> Path:
+    """No developer's server, key or reply cache leaks into a test; returns the cache dir."""
     for name in (
         "STALM_LLM",
         "STALM_LLM_BASE_URL",
@@ -165,4 +44,6 @@ def _no_llm_environment(monkeypatch: pytest.MonkeyPatch, tmp_path: Any) -> None:
         "OPENAI_BASE_URL",
     ):
         monkeypatch.delenv(name, raising=False)
-    monkeypatch.setenv("STALM_CACHE_DIR", str(tmp_path / "stalm-cache"))
+    cache_dir = tmp_path / "stalm-cache"
+    monkeypatch.setenv("STALM_CACHE_DIR", str(cache_dir))
+    return cache_dir

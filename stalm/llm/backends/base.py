@@ -8,42 +8,13 @@ reply cache key them, lets tests compare them, and lets results record exactly w
 
 from __future__ import annotations
 
-import hashlib
-import json
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 from stalm.errors import StalmError
+from stalm.llm.constraints import OutputConstraint
 
-
-@dataclass(frozen=True)
-class OutputConstraint:
-    """A restriction of what the model may write, in the two forms servers understand.
-
-    llama.cpp (embedded, or its server) reads a GBNF grammar; OpenAI and servers that follow
-    its structured-output API read a JSON schema. Both are built together from one problem's
-    vocabulary (:func:`stalm.llm.constraints.build_constraint`) so a backend can pick the form
-    it supports. The schema is kept as canonical JSON text so the value stays hashable and its
-    fingerprint is stable across processes and machines (the reply cache keys on it).
-    """
-
-    name: str
-    gbnf: str
-    json_schema_text: str
-
-    def json_schema(self) -> dict[str, Any]:
-        """The JSON schema as a fresh dict (callers may mutate it)."""
-        schema: dict[str, Any] = json.loads(self.json_schema_text)
-        return schema
-
-    @property
-    def fingerprint(self) -> str:
-        """A short stable digest of both forms: the cache's notion of "same constraint"."""
-        digest = hashlib.sha256()
-        for part in (self.name, self.gbnf, self.json_schema_text):
-            digest.update(part.encode("utf-8"))
-            digest.update(b"\x00")
-        return digest.hexdigest()[:16]
+__all__ = ["LLMBackend", "LLMReply", "LLMRequest", "LLMResponse", "OutputConstraint"]
 
 
 @dataclass(frozen=True)

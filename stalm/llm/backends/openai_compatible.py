@@ -25,13 +25,14 @@ import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any, Literal, cast, get_args
-
-import openai
+from typing import TYPE_CHECKING, Any, Literal, cast, get_args
 
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMReply, LLMRequest, LLMResponse
 from stalm.llm.constraints import json_reply_to_plan_text
+
+if TYPE_CHECKING:  # imported where used: it adds a third of a second to every CLI start
+    import openai
 
 ConstraintStyle = Literal["json_schema", "gbnf"]
 CONSTRAINT_STYLES: tuple[str, ...] = get_args(ConstraintStyle)
@@ -159,6 +160,8 @@ class OpenAICompatibleBackend:
         self._lock = threading.Lock()
         # Learned from the server: None until a batch shows whether it honours ``n``.
         self._server_honours_n: bool | None = None
+        import openai
+
         self._client = openai.OpenAI(
             api_key=key or _PLACEHOLDER_KEY,
             base_url=self._base_url or None,
@@ -198,6 +201,8 @@ class OpenAICompatibleBackend:
         return f"server {self.url} (model {model or self._model or '?'!r})"
 
     def _discover_model(self) -> str:
+        import openai
+
         try:
             listing = self._client.models.list()
             names = [entry.id for entry in listing.data]
@@ -265,10 +270,10 @@ class OpenAICompatibleBackend:
                 kwargs["extra_body"] = {"grammar": request.constraint.gbnf}
         return kwargs
 
-    def _call(
-        self, request: LLMRequest, model: str, n: int, seed: int | None
-    ) -> list[LLMReply]:
+    def _call(self, request: LLMRequest, model: str, n: int, seed: int | None) -> list[LLMReply]:
         """One HTTP request (with retries) -> its choices as replies."""
+        import openai
+
         kwargs = self._request_kwargs(request, model, n, seed)
         where = self._describe(model)
         last_problem = ""
@@ -299,16 +304,13 @@ class OpenAICompatibleBackend:
                 return self._replies(completion, request, where, time.perf_counter() - started)
             if attempt + 1 < self._retry.max_attempts:
                 self._sleep(self._retry.delay_s(attempt, retry_after))
-        raise StalmError(
-            f"{where} failed {self._retry.max_attempts} times; last: {last_problem}"
-        )
+        raise StalmError(f"{where} failed {self._retry.max_attempts} times; last: {last_problem}")
 
     def _status_error(self, error: openai.APIStatusError, where: str) -> StalmError:
         status = error.status_code
         if status in (401, 403):
             return StalmError(
-                f"{where} rejected the API key (HTTP {status}); set {API_KEY_ENV} "
-                f"or OPENAI_API_KEY"
+                f"{where} rejected the API key (HTTP {status}); set {API_KEY_ENV} or OPENAI_API_KEY"
             )
         if status == 404:
             return StalmError(

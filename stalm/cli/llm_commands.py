@@ -1,0 +1,106 @@
+"""``stalm llm ...``: see which language model stalm would use, and that it answers.
+
+A planning run that fails on its first LLM call after minutes of setup is a poor way to learn
+that a key is wrong or a server is down; ``stalm llm check`` asks one short question and
+reports backend, model, latency and token counts in a few seconds.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.panel import Panel
+
+from stalm.domain.vocabulary import Vocabulary
+from stalm.llm.backends import SPEC_ENV, SPEC_HELP, LLMRequest, make_backend
+from stalm.llm.constraints import build_constraint
+
+llm_app = typer.Typer(
+    name="llm",
+    help="Check the language-model backend stalm uses.",
+    no_args_is_help=True,
+    add_completion=False,
+)
+
+
+@llm_app.callback()
+def _llm_group() -> None:
+    """Check the language-model backend stalm uses."""
+
+
+_CHECK_SYSTEM = "You are a helpful assistant. Answer in one short sentence."
+_CONSTRAINED_SYSTEM = (
+    "You are an expert proficient in PDDL and planning actions for a problem. Your response "
+    "should follow this template:\n## Possible Challenges for unachieved goals based on "
+    "current state ##\n\n## Plan for unachieved goals ## plan = [('action_type', 'args_1', "
+    "'args_2',...), ]"
+)
+_CONSTRAINED_USER = (
+    "Objects: coke - movable_object, counter1 counter2 - region, kitchen_door - openable.\n"
+    "Init: (AtPosition coke on counter1) (IsClosed kitchen_door) (PickOccludedBy coke "
+    "kitchen_door)\nGoal: (AtPosition coke on counter2)\n"
+    "Generate a plan to achieve the goals from init."
+)
+_CONSTRAINED_VOCABULARY = Vocabulary(
+    movables=("coke",), regions=("counter1", "counter2"), doors=("kitchen_door",)
+)
+
+
+@llm_app.command("check")
+def check(
+    llm: Annotated[
+        str | None,
+        typer.Option("--llm", envvar=SPEC_ENV, help=f"Backend spec: {SPEC_HELP}."),
+    ] = None,
+    prompt: Annotated[
+        str, typer.Option(help="The question to ask.")
+    ] = "In one sentence: what does a robot need to do before picking up an occluded object?",
+    max_tokens: Annotated[int, typer.Option(help="Reply length limit in tokens.")] = 48,
+    seed: Annotated[int, typer.Option(help="Sampling seed.")] = 0,
+    constrained: Annotated[
+        bool,
+        typer.Option(
+            "--constrained",
+            help="Ask for a tiny plan under the reply grammar/schema instead, to check that "
+            "the server accepts output constraints.",
+        ),
+    ] = False,
+) -> None:
+    """Show the configured backend and model, then time one short answer."""
+    console = Console()
+    backend = make_backend(llm)
+    console.print(f"[bold]backend[/]: {backend.name}")
+    console.print(f"[bold]model[/]:   {backend.model}")
+    notice_style = "yellow" if backend.name == "embedded" else "blue"
+    console.print(Panel(backend.description, border_style=notice_style, title="about"))
+    if constrained:
+        request = LLMRequest(
+            system=_CONSTRAINED_SYSTEM,
+            user=_CONSTRAINED_USER,
+            n=1,
+            temperature=0.0,
+            max_tokens=max(max_tokens, 512),
+            seed=seed,
+            constraint=build_constraint(_CONSTRAINED_VOCABULARY),
+        )
+    else:
+        request = LLMRequest(
+            system=_CHECK_SYSTEM,
+            user=prompt,
+            n=1,
+            temperature=0.0,
+            max_tokens=max_tokens,
+            seed=seed,
+        )
+    with console.status("asking the model..."):
+        response = backend.complete(request)
+    reply = response.replies[0]
+    console.print(Panel(reply.text.strip() or "(empty reply)", title="reply"))
+    rate = reply.completion_tokens / reply.latency_s if reply.latency_s > 0 else 0.0
+    console.print(
+        f"latency {reply.latency_s:.2f} s | prompt tokens {reply.prompt_tokens} | "
+        f"completion tokens {reply.completion_tokens} | {rate:.1f} tokens/s | "
+        f"finish: {reply.finish_reason or '?'}"
+    )

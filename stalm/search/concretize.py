@@ -1,0 +1,195 @@
+"""Concretize (Algorithm 2): ground task plans with sampled κ and classify the failures.
+
+For each task plan, step by step from the start state: draw κ ~ ψ(s, α(δ)), apply T, and stop
+the plan at its first infeasible step or at the horizon; stop everything at the first state
+that satisfies the goal. Every step is recorded (state, discrete action, κ key, outcome), so
+WarmUpTree can add exactly what was explored to the search tree without paying T again.
+
+Failed plans are classified as in the paper's Figure 5 (§4.4), plus one kind for replies the
+caller could not read:
+
+* ``precondition_violation`` — a step's symbolic precondition is false in the state it is
+  tried in (the model ignored the state or its own earlier steps);
+* ``lack_of_3d_understanding`` — the precondition holds but ψ found no feasible κ (geometry
+  the prompt cannot convey: occlusion, size, reachability);
+* ``partially_achieved_goal`` — every step tried was feasible but the goal does not hold
+  (also when the horizon cut the plan; see :attr:`ConcretePlan.truncated`);
+* ``unparseable`` — no plan to try (the caller passes an empty plan with its reason).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from stalm.domain.actions import DiscreteAction
+from stalm.domain.outcome import Infeasibility, Outcome
+from stalm.domain.params import Action
+from stalm.search.mdp import SearchMDP
+from stalm.search.transition import PRECONDITION, CountingMDP, Kappa, WorkCounts, apply, draw
+from stalm.world.state import State
+
+FailureKind = Literal[
+    "precondition_violation",
+    "lack_of_3d_understanding",
+    "partially_achieved_goal",
+    "unparseable",
+]
+FAILURE_KINDS: tuple[FailureKind, ...] = (
+    "precondition_violation",
+    "lack_of_3d_understanding",
+    "partially_achieved_goal",
+    "unparseable",
+)
+
+
+@dataclass(frozen=True)
+class TaskPlan:
+    """A task plan: discrete actions in order, or why the caller has none (``unparseable``).
+
+    A reply the parser could not read still counts as one of the batch's plans (Figure 5
+    reports how many of them there were), so it is passed as an empty plan with its reason.
+    """
+
+    actions: tuple[DiscreteAction, ...]
+    unparseable: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.unparseable is not None and self.actions:
+            raise ValueError("a TaskPlan marked unparseable must have no actions")
+
+    @staticmethod
+    def unreadable(reason: str) -> TaskPlan:
+        return TaskPlan((), reason)
+
+
+@dataclass(frozen=True)
+class ConcreteStep:
+    """One grounded step: the state it was tried in, α(δ), the κ key and T's outcome.
+
+    ``kappa`` is the sampled :class:`Action`, or the :class:`Infeasibility` when ψ found no κ
+    (or the precondition was false); it is the key the step gets in the search tree.
+    """
+
+    state: State
+    action: DiscreteAction
+    kappa: Kappa
+    outcome: Outcome
+
+    @property
+    def params(self) -> Action | None:
+        """The sampled action α(δ, κ), or None for an infeasible step."""
+        return None if isinstance(self.kappa, Infeasibility) else self.kappa
+
+
+@dataclass(frozen=True)
+class ConcretePlan:
+    """What Concretize did with one task plan.
+
+    ``failure`` is None exactly when ``reached_goal``. ``failed_step`` is the index of the
+    infeasible step, if any; ``truncated`` says the horizon stopped the plan before its last
+    step; ``detail`` is one sentence on what went wrong.
+    """
+
+    index: int
+    task_plan: TaskPlan
+    steps: tuple[ConcreteStep, ...]
+    reached_goal: bool
+    failure: FailureKind | None
+    detail: str | None = None
+    failed_step: int | None = None
+    truncated: bool = False
+
+    @property
+    def actions(self) -> tuple[Action, ...]:
+        """The feasible prefix as concrete actions α(δ, κ)."""
+        return tuple(step.params for step in self.steps if step.params is not None)
+
+
+@dataclass(frozen=True)
+class ConcretizeResult:
+    """Algorithm 2's (success, Plans), with the goal-reaching plan and the work done.
+
+    ``plans`` holds the task plans tried, in order; after a success the remaining plans are
+    not tried and do not appear. ``solution`` is the successful plan's actions.
+    """
+
+    success: bool
+    plans: tuple[ConcretePlan, ...]
+    solution: tuple[Action, ...] | None
+    counts: WorkCounts
+
+    @property
+    def failures(self) -> tuple[tuple[int, FailureKind], ...]:
+        """(task-plan index, failure kind) for every failed plan."""
+        return tuple((p.index, p.failure) for p in self.plans if p.failure is not None)
+
+
+def concretize(
+    mdp: SearchMDP,
+    state: State,
+    task_plans: Sequence[TaskPlan],
+    rng: np.random.Generator,
+    *,
+    depth0: int = 0,
+    horizon: int = 20,
+) -> ConcretizeResult:
+    """Ground ``task_plans`` from ``state`` (episode depth ``depth0``, horizon H = ``horizon``).
+
+    One κ draw per step (ψ makes the operator's own number of tries), as in Algorithm 2.
+    """
+    counting = CountingMDP(mdp)
+    plans: list[ConcretePlan] = []
+    for index, task_plan in enumerate(task_plans):
+        plan = _concretize_one(counting, state, index, task_plan, rng, depth0, horizon)
+        plans.append(plan)
+        if plan.reached_goal:
+            return ConcretizeResult(True, tuple(plans), plan.actions, counting.counts())
+    return ConcretizeResult(False, tuple(plans), None, counting.counts())
+
+
+def _concretize_one(
+    mdp: SearchMDP,
+    start: State,
+    index: int,
+    task_plan: TaskPlan,
+    rng: np.random.Generator,
+    depth0: int,
+    horizon: int,
+) -> ConcretePlan:
+    if not task_plan.actions:
+        reason = task_plan.unparseable or "the task plan is empty"
+        return ConcretePlan(index, task_plan, (), False, "unparseable", reason)
+    steps: list[ConcreteStep] = []
+    state = start
+    depth = depth0
+    for position, action in enumerate(task_plan.actions):
+        if depth >= horizon:
+            detail = f"the horizon H = {horizon} stopped the plan after {position} step(s)"
+            failure: FailureKind = "partially_achieved_goal"
+            return ConcretePlan(
+                index, task_plan, tuple(steps), False, failure, detail, truncated=True
+            )
+        kappa = draw(mdp, state, action, rng)
+        outcome = apply(mdp, state, kappa)
+        steps.append(ConcreteStep(state, action, kappa, outcome))
+        depth += 1
+        if isinstance(kappa, Infeasibility) or not outcome.feasible:
+            why = kappa if isinstance(kappa, Infeasibility) else outcome.failure
+            kind: FailureKind = (
+                "precondition_violation"
+                if why is not None and why.kind == PRECONDITION
+                else "lack_of_3d_understanding"
+            )
+            detail = f"step {position} {action} is infeasible: {why}"
+            return ConcretePlan(
+                index, task_plan, tuple(steps), False, kind, detail, failed_step=position
+            )
+        if outcome.goal_reached:
+            return ConcretePlan(index, task_plan, tuple(steps), True, None)
+        state = outcome.state
+    detail = f"all {len(steps)} step(s) are feasible but the goal does not hold"
+    return ConcretePlan(index, task_plan, tuple(steps), False, "partially_achieved_goal", detail)

@@ -1,0 +1,102 @@
+"""Animations of a plan executing: the base driving, the arm moving, objects carried, the door
+swinging. Frames are rendered with TinyRenderer (headless) and written as a GIF."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+from PIL import Image
+
+from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
+from stalm.motion.arm_motion import interpolate_waypoints
+from stalm.motion.base_motion import densify
+from stalm.viz.render import perspective, top_down
+from stalm.world.scene import Sim
+from stalm.world.state import State
+
+BASE_STEP = 0.4
+"""Metres the base moves between two frames."""
+ARM_FRAMES = 8
+"""Frames per arm motion segment between two waypoints."""
+
+
+def _frame(sim: Sim, size: int) -> Image.Image:
+    left = top_down(sim, size, size)
+    right = perspective(sim, size, size)
+    canvas = Image.new("RGB", (2 * size, size), (255, 255, 255))
+    canvas.paste(left, (0, 0))
+    canvas.paste(right, (size, 0))
+    return canvas
+
+
+def plan_frames(
+    sim: Sim, start: State, plan: Sequence[tuple[Action, State]], size: int = 240
+) -> list[Image.Image]:
+    """Frames of ``plan``: pairs of an action and the state it leads to, from ``start``."""
+    frames: list[Image.Image] = []
+    state = start
+    sim.set_state(state)
+    frames.append(_frame(sim, size))
+    for action, next_state in plan:
+        params = action.params
+        sim.set_state(state)
+        path = densify(params.base_path, BASE_STEP)
+        for pose in path[1:]:
+            sim.set_base_only(pose)
+            frames.append(_frame(sim, size))
+        stand = params.base_path.corners[-1]
+        sim.set_base_only(stand)
+        if isinstance(params, PickParams):
+            split = params.arm_waypoints.index(params.grasp_conf)
+        elif isinstance(params, PlaceParams):
+            split = params.arm_waypoints.index(params.place_conf)
+        else:
+            split = params.arm_waypoints.index(params.handle_conf)
+        dense = interpolate_waypoints(list(params.arm_waypoints))
+        grasp_index = _index_of(dense, params.arm_waypoints[split])
+        step = max(1, len(dense) // (ARM_FRAMES * max(1, len(params.arm_waypoints) - 1)))
+        for index in range(0, len(dense), step):
+            if index >= grasp_index and isinstance(params, PickParams):
+                sim.attach(params.grasp)
+            if index >= grasp_index and isinstance(params, PlaceParams):
+                sim.attach(None)
+                sim.place_object(action.discrete.as_tuple()[1], params.placement)
+            conf = dense[index]
+            sim.set_arm(stand, conf[0], conf[1:])
+            frames.append(_frame(sim, size))
+        if isinstance(params, OpenParams):
+            door = sim.problem.door(action.discrete.as_tuple()[1])
+            for t in (0.25, 0.5, 0.75, 1.0):
+                yaw = door.closed_yaw + t * math.remainder(
+                    door.open_yaw - door.closed_yaw, math.tau
+                )
+                sim.set_door_angle(door.name, yaw)
+                frames.append(_frame(sim, size))
+        state = next_state
+        sim.set_state(state)
+        frames.append(_frame(sim, size))
+    return frames
+
+
+def _index_of(dense: list[tuple[float, ...]], conf: tuple[float, ...]) -> int:
+    best, best_distance = 0, math.inf
+    for index, candidate in enumerate(dense):
+        distance = sum(abs(a - b) for a, b in zip(candidate, conf, strict=True))
+        if distance < best_distance:
+            best, best_distance = index, distance
+    return best
+
+
+def save_gif(frames: Sequence[Image.Image], path: Path, frame_ms: int = 120) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    frames[0].save(
+        path,
+        save_all=True,
+        append_images=list(frames[1:]),
+        duration=frame_ms,
+        loop=0,
+        optimize=True,
+    )
+    return path
