@@ -122,3 +122,39 @@ def bench_predicates(
     console.print(table)
     if json_out is not None:
         json_out.write_text(json.dumps(rows, indent=2))
+
+
+@bench_app.command("search")
+def bench_search(
+    problems: Annotated[list[str] | None, typer.Argument(help="Problems (default P1..P6).")] = None,
+    sims: Annotated[int, typer.Option(help="Simulations of plain UCT per problem.")] = 30,
+    seed: Annotated[int, typer.Option(help="Seed of the search.")] = 0,
+) -> None:
+    """Simulations and T calls per second, and Concretize time for a 13-step plan."""
+    from stalm.experiments.bench_search import bench_concretize, run
+
+    names = problems or ["P1", "P2", "P3", "P4", "P5", "P6"]
+    table = Table(title=f"plain UCT from the initial state, {sims} simulations")
+    for column in ("problem", "seconds", "simulations/s", "T calls/s", "psi draws/s"):
+        table.add_column(column, justify="right")
+    with console.status("benchmarking the search...") as status:
+
+        def report(row: dict[str, object]) -> None:
+            status.update(f"done {row['problem']}")
+            table.add_row(
+                str(row["problem"]),
+                f"{row['seconds']:.1f}",
+                f"{row['simulations_per_s']:.2f}",
+                f"{row['transitions_per_s']:.1f}",
+                f"{row['samples_per_s']:.1f}",
+            )
+
+        run(names, sims, seed, report)
+        status.update("concretizing P1's 13-step plan")
+        concrete = bench_concretize(seed)
+    console.print(table)
+    console.print(
+        f"Concretize of a correct {concrete['plan_length']}-step plan (P1): median "
+        f"{concrete['median_s']:.2f} s over {concrete['repeats']} runs, "
+        f"{concrete['successes']} reached the goal"
+    )

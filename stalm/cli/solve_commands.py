@@ -82,7 +82,10 @@ def solve_command(
     no_challenges: Annotated[
         bool, typer.Option("--no-challenges", help="Prompt ablation.")
     ] = False,
-    cache: Annotated[str, typer.Option(help="Reply cache mode: use, refresh or off.")] = "use",
+    cache: Annotated[
+        str,
+        typer.Option(help="Reply cache mode: use, refresh, off or replay (a miss is an error)."),
+    ] = "use",
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Write the result as JSON.")
     ] = None,

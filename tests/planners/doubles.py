@@ -1,0 +1,38 @@
+"""Test doubles for proposers (tests only): known task plans instead of a language model."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+from stalm.domain.actions import DiscreteAction
+from stalm.domain.mdp import Domain
+from stalm.planners.proposers import Proposal
+from stalm.predicates.literals import GroundLiteral
+from stalm.world.problem import Problem
+from stalm.world.state import State
+
+
+class ScriptedSuffixProposer:
+    """Proposes suffixes of one known task plan, like a model re-planning from the current
+    state: the longest suffixes whose first step's symbolic precondition holds now."""
+
+    name = "scripted-test-double"
+
+    def __init__(self, problem: Problem, plan: Sequence[DiscreteAction]) -> None:
+        self.plan = tuple(plan)
+        self._domain_for_checks = Domain.create(problem)
+        self.calls = 0
+
+    def propose(
+        self, problem: Problem, state: State, literals: Iterable[GroundLiteral], n: int, seed: int
+    ) -> Proposal:
+        self.calls += 1
+        suffixes = [
+            self.plan[i:]
+            for i in range(len(self.plan))
+            if self._domain_for_checks.precondition_failure(state, self.plan[i]) is None
+        ]
+        return Proposal(plans=tuple(suffixes[:n]), calls=1)
+
+    def close(self) -> None:
+        self._domain_for_checks.close()
