@@ -52,6 +52,9 @@ def _print_result(result: PlanResult) -> None:
         out.print(f"failed task plans by kind: {result.llm_plan_failures}", highlight=False)
 
 
+PLANNERS = ("stalm", "stalm-no-uct", "uct")
+
+
 @app.command("solve")
 def solve_command(
     problem: Annotated[str, typer.Argument(help="Problem name (P5) or path to a problem file.")],
@@ -66,7 +69,16 @@ def solve_command(
     time_budget: Annotated[
         float | None, typer.Option("--time-budget", help="Seconds (default: the problem's).")
     ] = None,
-    sims: Annotated[int, typer.Option("--sims", help="N_budget: simulations per step.")] = 30,
+    planner_name: Annotated[
+        str,
+        typer.Option(
+            "--planner", help="stalm (default), stalm-no-uct, or uct (no model, N_budget 35)."
+        ),
+    ] = "stalm",
+    sims: Annotated[
+        int | None,
+        typer.Option("--sims", help="N_budget: simulations per step (default 30; 35 for uct)."),
+    ] = None,
     batch: Annotated[int, typer.Option("--batch", help="N_batch: task plans per query.")] = 5,
     no_uct: Annotated[bool, typer.Option("--no-uct", help="STaLM w/o UCT (Table 3).")] = False,
     constrained: Annotated[
@@ -102,15 +114,26 @@ def solve_command(
     from stalm.search import SearchSettings
 
     loaded = load_problem(problem)
-    backend = CachedBackend(make_backend(llm), mode=cache)
-    if backend.name == "embedded":
-        console.print(f"[yellow]note:[/] {backend.description}", highlight=False)
-    proposer = LLMProposer(
-        backend,
-        PromptOptions(occlusion_predicates=not no_occlusion, ask_challenges=not no_challenges),
-        constrained=backend.name == "embedded" if constrained is None else constrained,
+    if planner_name not in PLANNERS:
+        raise StalmError(f"unknown planner '{planner_name}' (available: {', '.join(PLANNERS)})")
+    if no_uct:
+        planner_name = "stalm-no-uct"
+    proposer = None
+    if planner_name != "uct":
+        backend = CachedBackend(make_backend(llm), mode=cache)
+        if backend.name == "embedded":
+            console.print(f"[yellow]note:[/] {backend.description}", highlight=False)
+        options = PromptOptions(
+            occlusion_predicates=not no_occlusion, ask_challenges=not no_challenges
+        )
+        use_constraint = backend.name == "embedded" if constrained is None else constrained
+        proposer = LLMProposer(backend, options, constrained=use_constraint)
+    budget = sims if sims is not None else (35 if planner_name == "uct" else 30)
+    settings = StalmSettings(
+        n_batch=batch,
+        search=SearchSettings(budget=budget),
+        use_tree=planner_name != "stalm-no-uct",
     )
-    settings = StalmSettings(n_batch=batch, search=SearchSettings(budget=sims), use_tree=not no_uct)
     with console.status(f"solving {loaded.name}...") as status:
         planner = StalmPlanner(proposer, settings, progress=lambda m: status.update(m))
         result = planner.solve(loaded, seed, time_budget)

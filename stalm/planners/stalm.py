@@ -54,12 +54,15 @@ class _Clock:
 class StalmPlanner:
     """STaLM with any task-plan proposer (a language model by default)."""
 
-    proposer: TaskPlanProposer
+    proposer: TaskPlanProposer | None
+    """None runs the same online loop with no task plans: plain hybrid UCT (the 'uct' baseline)."""
     settings: StalmSettings = field(default_factory=StalmSettings)
     progress: Progress | None = None
 
     @property
     def name(self) -> str:
+        if self.proposer is None:
+            return "uct"
         return "stalm" if self.settings.use_tree else "stalm-no-uct"
 
     def _say(self, message: str) -> None:
@@ -103,26 +106,28 @@ class StalmPlanner:
                 termination = "timeout"
                 break
             replans += 1
-            tick = time.monotonic()
-            self._say(f"step {len(executed)}: predicates")
-            if predicates is None:
-                predicates = engine.compute(state)
-            else:
-                predicates = engine.update(predicates, executed[-1].discrete, state)
-            clock.predicates += time.monotonic() - tick
+            task_plans: list[TaskPlan] = []
+            if self.proposer is not None:
+                tick = time.monotonic()
+                self._say(f"step {len(executed)}: predicates")
+                if predicates is None:
+                    predicates = engine.compute(state)
+                else:
+                    predicates = engine.update(predicates, executed[-1].discrete, state)
+                clock.predicates += time.monotonic() - tick
 
-            tick = time.monotonic()
-            self._say(f"step {len(executed)}: asking {self.proposer.name} for task plans")
-            proposal = self.proposer.propose(
-                problem, state, predicates.literals, self.settings.n_batch, seed * 1000 + step
-            )
-            step += 1
-            clock.llm += time.monotonic() - tick
-            llm_calls += proposal.calls
-            prompt_tokens += proposal.prompt_tokens
-            completion_tokens += proposal.completion_tokens
-            task_plans = [TaskPlan(plan) for plan in proposal.plans]
-            task_plans += [TaskPlan.unreadable(reason) for reason in proposal.unparseable]
+                tick = time.monotonic()
+                self._say(f"step {len(executed)}: asking {self.proposer.name} for task plans")
+                proposal = self.proposer.propose(
+                    problem, state, predicates.literals, self.settings.n_batch, seed * 1000 + step
+                )
+                step += 1
+                clock.llm += time.monotonic() - tick
+                llm_calls += proposal.calls
+                prompt_tokens += proposal.prompt_tokens
+                completion_tokens += proposal.completion_tokens
+                task_plans = [TaskPlan(plan) for plan in proposal.plans]
+                task_plans += [TaskPlan.unreadable(reason) for reason in proposal.unparseable]
 
             tick = time.monotonic()
             self._say(f"step {len(executed)}: concretizing {len(task_plans)} task plans")
@@ -200,7 +205,10 @@ class StalmPlanner:
             ),
             termination=termination,
             llm_plan_failures=dict(failures),
-            details={"proposer": self.proposer.name, "replay_failure": replay_reason},
+            details={
+                "proposer": self.proposer.name if self.proposer is not None else None,
+                "replay_failure": replay_reason,
+            },
         )
 
 

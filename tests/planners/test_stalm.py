@@ -98,3 +98,12 @@ def test_same_seed_and_proposer_give_the_identical_plan(problems) -> None:
     second = _solve(problems["P2"], P2_PLAN[1:], seed=4)
     assert first.to_json()["plan"] == second.to_json()["plan"]
     assert first.success == second.success
+
+
+def test_plain_uct_runs_the_same_loop_without_a_model(problems) -> None:
+    planner = StalmPlanner(None, StalmSettings(search=SearchSettings(budget=5)))
+    result = planner.solve(problems["P2"], seed=0, time_budget_s=8.0)
+    assert planner.name == "uct" and result.planner == "uct"
+    assert result.counters.llm_calls == 0 and result.counters.simulations > 0
+    assert result.termination in {"goal", "timeout", "horizon"}
+    assert len(result.states) == len(result.plan) + 1
