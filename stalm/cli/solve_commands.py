@@ -52,7 +52,7 @@ def _print_result(result: PlanResult) -> None:
         out.print(f"failed task plans by kind: {result.llm_plan_failures}", highlight=False)
 
 
-PLANNERS = ("stalm", "stalm-no-uct", "uct")
+PLANNERS = ("stalm", "stalm-no-uct", "uct", "uct-hcount")
 
 
 @app.command("solve")
@@ -119,7 +119,7 @@ def solve_command(
     if no_uct:
         planner_name = "stalm-no-uct"
     proposer = None
-    if planner_name != "uct":
+    if planner_name not in ("uct", "uct-hcount"):
         backend = CachedBackend(make_backend(llm), mode=cache)
         if backend.name == "embedded":
             console.print(f"[yellow]note:[/] {backend.description}", highlight=False)
@@ -128,11 +128,12 @@ def solve_command(
         )
         use_constraint = backend.name == "embedded" if constrained is None else constrained
         proposer = LLMProposer(backend, options, constrained=use_constraint)
-    budget = sims if sims is not None else (35 if planner_name == "uct" else 30)
+    budget = sims if sims is not None else (35 if planner_name.startswith("uct") else 30)
     settings = StalmSettings(
         n_batch=batch,
         search=SearchSettings(budget=budget),
         use_tree=planner_name != "stalm-no-uct",
+        leaf_value="hcount" if planner_name == "uct-hcount" else "rollout",
     )
     with console.status(f"solving {loaded.name}...") as status:
         planner = StalmPlanner(proposer, settings, progress=lambda m: status.update(m))

@@ -14,17 +14,25 @@ from __future__ import annotations
 import time
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
 from stalm.planners.base import Counters, PhaseTimes, PlanResult
+from stalm.planners.hcount import hcount_value
 from stalm.planners.proposers import TaskPlanProposer
 from stalm.planners.replay import replay_plan
 from stalm.predicates.engine import PredicateCache, PredicateEngine
-from stalm.search import SearchSettings, TaskPlan, concretize, warm_started_uct
+from stalm.search import (
+    SearchPolicies,
+    SearchSettings,
+    StateValue,
+    TaskPlan,
+    concretize,
+    warm_started_uct,
+)
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -39,6 +47,8 @@ class StalmSettings:
     search: SearchSettings = field(default_factory=SearchSettings)
     use_tree: bool = True
     """False gives 'STaLM w/o UCT' (Table 3): no simulations after Concretize."""
+    leaf_value: str = "rollout"
+    """'rollout' (STaLM, UCT) or 'hcount' (UCT-with-Hcount, Appendix C)."""
 
 
 @dataclass
@@ -62,8 +72,14 @@ class StalmPlanner:
     @property
     def name(self) -> str:
         if self.proposer is None:
-            return "uct"
+            return "uct-hcount" if self.settings.leaf_value == "hcount" else "uct"
         return "stalm" if self.settings.use_tree else "stalm-no-uct"
+
+    def _policies(self, problem: Problem, engine: PredicateEngine) -> SearchPolicies:
+        policies = SearchPolicies.from_settings(self.settings.search)
+        if self.settings.leaf_value == "hcount":
+            return replace(policies, value=_hcount_leaf_value(problem, engine))
+        return policies
 
     def _say(self, message: str) -> None:
         if self.progress is not None:
@@ -84,6 +100,7 @@ class StalmPlanner:
     ) -> PlanResult:
         engine = PredicateEngine(problem, domain.sim, domain.base_planner)
         rng = np.random.default_rng(seed)
+        policies = self._policies(problem, engine)
         horizon = problem.horizon
         search = self.settings.search
         clock = _Clock()
@@ -151,6 +168,7 @@ class StalmPlanner:
                     settings=search,
                     depth0=len(executed),
                     deadline=deadline,
+                    policies=policies,
                 )
                 clock.tree += time.monotonic() - tick
                 simulations += result.counters.simulations
@@ -210,6 +228,18 @@ class StalmPlanner:
                 "replay_failure": replay_reason,
             },
         )
+
+
+def _hcount_leaf_value(problem: Problem, engine: PredicateEngine) -> StateValue:
+    """Hcount at a leaf: the leaf's predicates computed from scratch (memoised per state)."""
+    memo: dict[State, float] = {}
+
+    def value(state: State, depth: int) -> float:
+        if state not in memo:
+            memo[state] = hcount_value(problem, engine.compute(state).literals, state)
+        return memo[state]
+
+    return StateValue(value)
 
 
 def _first_action_of_best_prefix(plans: object) -> tuple[Action, ...]:
