@@ -17,6 +17,7 @@ from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
 from stalm.domain.samplers import CARRY_CONF, Samplers, SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
+from stalm.geometry.transforms import wrap_angle
 from stalm.motion.base_motion import BasePlanner
 from stalm.motion.roadmap import RoadmapSettings
 from stalm.world.problem import Problem
@@ -143,7 +144,7 @@ class Domain:
                 remove=discrete.obj,
                 robot=_carry(stand),
                 held=params.grasp,
-                held_yaw_offset=_wrap(offset),
+                held_yaw_offset=wrap_angle(offset),
             )
         if isinstance(params, PlaceParams):
             assert isinstance(discrete, Place)
@@ -197,9 +198,3 @@ class Domain:
 
 def _carry(stand: tuple[float, float, float]) -> RobotConf:
     return RobotConf.make(stand, CARRY_CONF[0], CARRY_CONF[1:])
-
-
-def _wrap(angle: float) -> float:
-    from stalm.geometry.transforms import wrap_angle
-
-    return wrap_angle(angle)

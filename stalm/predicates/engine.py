@@ -33,7 +33,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from stalm.domain.actions import RELATIVE_DIRECTIONS, DiscreteAction, Pick, Place
-from stalm.geometry.transforms import Pose3, compose, invert, quat_yaw, yaw_quat
+from stalm.geometry.transforms import Pose3, compose, invert, quat_yaw, wrap_angle, yaw_quat
 from stalm.motion.arm_motion import interpolate_waypoints
 from stalm.motion.base_motion import BasePath, BasePlanner
 from stalm.motion.grasps import (
@@ -283,7 +283,7 @@ class PredicateEngine:
             motions.append(replace(motion, hits=motion.hits - {obj}))
             if grasp is None:
                 grasp = this_grasp
-        return PickRecord(pose, region_name, grasp, _wrap(pose.yaw - stand[2]), tuple(motions))
+        return PickRecord(pose, region_name, grasp, wrap_angle(pose.yaw - stand[2]), tuple(motions))
 
     def _refresh_grasps(self, cache: PredicateCache) -> None:
         """The grasp each object's placements use: the one in hand, or its first feasible pick."""
@@ -322,7 +322,7 @@ class PredicateEngine:
         self, cache: PredicateCache, obj: str, region: RegionSpec
     ) -> tuple[PlacementSample, ...]:
         grasp, offset = cache.grasps[obj]
-        yaw = _wrap(region.base_pose[2] + offset)
+        yaw = wrap_angle(region.base_pose[2] + offset)
         spec = self.spec.object(obj)
         rng = np.random.default_rng(
             _stable_seed(self.settings.seed, "place", obj, region.name, grasp)
@@ -346,7 +346,7 @@ class PredicateEngine:
         if key in cache.targeted:
             return cache.targeted[key]
         grasp, offset = cache.grasps[obj]
-        yaw = _wrap(region.base_pose[2] + offset)
+        yaw = wrap_angle(region.base_pose[2] + offset)
         spec = self.spec.object(obj)
         ref_pose = cache.state.pose(ref)
         rng = np.random.default_rng(
@@ -528,10 +528,6 @@ def _fewest(sets: object) -> frozenset[str] | None:
 
 def _dense(waypoints: list[tuple[float, ...]]) -> tuple[tuple[float, ...], ...]:
     return tuple(interpolate_waypoints(waypoints))
-
-
-def _wrap(angle: float) -> float:
-    return math.remainder(angle, math.tau)
 
 
 def _pose_of(pose3: Pose3) -> ObjectPose:

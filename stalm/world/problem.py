@@ -7,7 +7,6 @@ YAML file is accepted anywhere a name is.
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass
 from functools import cached_property
@@ -96,7 +95,3 @@ def load_problem(name_or_path: str | Path) -> Problem:
         f"unknown problem '{name_or_path}': no file {wanted}.yaml in {problems_dir()} "
         f"(available: {names})"
     )
-
-
-def angle_close(a: float, b: float, tol: float = 1e-6) -> bool:
-    return abs(math.remainder(a - b, math.tau)) < tol
