@@ -51,3 +51,20 @@ def domain_factory(problems: dict[str, Problem]) -> Iterator[object]:
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(7)
+
+
+@pytest.fixture(scope="session")
+def initial_literals(domain_factory) -> Iterator[object]:
+    """Predicates of each problem's initial state, computed once per session."""
+    from stalm.predicates.engine import PredicateEngine
+
+    computed: dict[str, frozenset[object]] = {}
+
+    def get(name: str) -> frozenset[object]:
+        if name not in computed:
+            domain = domain_factory(name)
+            engine = PredicateEngine(domain.problem, domain.sim, domain.base_planner)
+            computed[name] = engine.compute(domain.problem.initial_state).literals
+        return computed[name]
+
+    yield get

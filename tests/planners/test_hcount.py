@@ -6,7 +6,6 @@ import pytest
 
 from stalm.planners.hcount import hcount, hcount_value, objects_in_goal, occluder_set
 from stalm.planners.stalm import StalmPlanner, StalmSettings
-from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral as L
 from stalm.search import SearchSettings
 
@@ -55,12 +54,10 @@ EXPECTED = {
 
 
 @pytest.mark.parametrize("name", sorted(EXPECTED))
-def test_hcount_of_the_initial_states(domain_factory, name) -> None:
-    domain = domain_factory(name)
-    problem = domain.problem
-    engine = PredicateEngine(problem, domain.sim, domain.base_planner)
+def test_hcount_of_the_initial_states(problems, initial_literals, name) -> None:
+    problem = problems[name]
     state = problem.initial_state
-    literals = engine.compute(state).literals
+    literals = initial_literals(name)
     occluders, in_goal, value = EXPECTED[name]
     assert occluder_set(problem, literals, state) == occluders
     assert objects_in_goal(problem, state) == in_goal
