@@ -75,3 +75,59 @@ def test_predicates_prompt_and_parse_reply_commands(monkeypatch, capsys, tmp_pat
     parsed = json.loads(capsys.readouterr().out)
     assert parsed["plan"] == [["pick", "bottle2"]]
     assert parsed["errors"] and "counter9" in json.dumps(parsed["errors"])
+
+
+def test_solve_with_the_uct_planner_writes_json_that_replays(
+    monkeypatch, capsys, tmp_path: Path
+) -> None:
+    result_file = tmp_path / "p2.json"
+    code = run_cli(
+        monkeypatch,
+        "solve",
+        "P2",
+        "--planner",
+        "uct",
+        "--time-budget",
+        "40",
+        "--sims",
+        "35",
+        "--seed",
+        "0",
+        "--json",
+        str(result_file),
+    )
+    data = json.loads(result_file.read_text())
+    assert data["planner"] == "uct" and data["problem"] == "P2"
+    assert code == (0 if data["success"] else 1)
+    out = capsys.readouterr().out
+    assert "P2 with uct (seed 0)" in out
+    if data["success"]:
+        assert run_cli(monkeypatch, "replay", str(result_file)) == 0
+        assert "the goal is reached" in capsys.readouterr().out
+    assert run_cli(monkeypatch, "solve", "P2", "--planner", "nope") == 2
+
+
+def test_replay_reports_a_bad_file(monkeypatch, capsys, tmp_path: Path) -> None:
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"problem": "P2", "plan": [{"action": ["fly", "x"]}]}')
+    assert run_cli(monkeypatch, "replay", str(bad)) == 2
+    assert "not a discrete action" in capsys.readouterr().err
+
+
+def test_benchmarks_run_and_print_their_tables(monkeypatch, capsys, tmp_path: Path) -> None:
+    rows = tmp_path / "world.json"
+    assert run_cli(monkeypatch, "bench", "world", "P2", "--attempts", "3", "--json", str(rows)) == 0
+    data = json.loads(rows.read_text())
+    assert data[0]["problem"] == "P2" and data[0]["pick"]["n"] >= 3
+    assert run_cli(monkeypatch, "bench", "search", "P2", "--sims", "2") == 0
+    out = capsys.readouterr().out
+    assert "simulations/s" in out and "13-step plan" in out
+
+
+def test_predicate_benchmark_checks_the_cache(monkeypatch, tmp_path: Path) -> None:
+    rows = tmp_path / "predicates.json"
+    assert run_cli(monkeypatch, "bench", "predicates", "P2", "--json", str(rows)) == 0
+    row = json.loads(rows.read_text())[0]
+    assert row["full_s"] > 0 and row["literals"] > 10
+    for kind in ("open", "pick", "place"):
+        assert row[kind]["equal"] is True, kind
