@@ -69,6 +69,14 @@ def solve_command(
     time_budget: Annotated[
         float | None, typer.Option("--time-budget", help="Seconds (default: the problem's).")
     ] = None,
+    proposer_name: Annotated[
+        str,
+        typer.Option(
+            "--proposer",
+            help="Where task plans come from: llm (default) or symbolic (Fast Downward on the "
+            "predicates, no model).",
+        ),
+    ] = "llm",
     planner_name: Annotated[
         str,
         typer.Option(
@@ -109,8 +117,9 @@ def solve_command(
     from stalm.llm.backends import make_backend
     from stalm.llm.cache import CachedBackend
     from stalm.llm.prompt import PromptOptions
-    from stalm.planners.proposers import LLMProposer
+    from stalm.planners.proposers import LLMProposer, TaskPlanProposer
     from stalm.planners.stalm import StalmPlanner, StalmSettings
+    from stalm.planners.symbolic import SymbolicProposer
     from stalm.search import SearchSettings
 
     loaded = load_problem(problem)
@@ -118,8 +127,12 @@ def solve_command(
         raise StalmError(f"unknown planner '{planner_name}' (available: {', '.join(PLANNERS)})")
     if no_uct:
         planner_name = "stalm-no-uct"
-    proposer = None
-    if planner_name not in ("uct", "uct-hcount"):
+    if proposer_name not in ("llm", "symbolic"):
+        raise StalmError(f"unknown proposer '{proposer_name}' (available: llm, symbolic)")
+    proposer: TaskPlanProposer | None = None
+    if planner_name not in ("uct", "uct-hcount") and proposer_name == "symbolic":
+        proposer = SymbolicProposer()
+    elif planner_name not in ("uct", "uct-hcount"):
         backend = CachedBackend(make_backend(llm), mode=cache)
         if backend.name == "embedded":
             console.print(f"[yellow]note:[/] {backend.description}", highlight=False)

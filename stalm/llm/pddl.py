@@ -89,6 +89,9 @@ def _clear_occlusions_by(entity: str) -> str:
 
 
 def _actions(occlusion: bool) -> str:
+    """The three operators. Beyond the prompt's domain, a relative PLACE also puts the object
+    on its reference's region (as it does geometrically), so goals such as P2's "on table2 and
+    right_of bottle1" are reachable for a classical planner."""
     pick_safe = " (not (UnsafePick ?subject))" if occlusion else ""
     place_safe = "\n      (not (UnsafePlace ?subject ?direction ?reference))" if occlusion else ""
     pick_clears = _clear_occlusions_by("?subject") if occlusion else ""
@@ -114,7 +117,10 @@ def _actions(occlusion: bool) -> str:
     :effect (and
       (not (RobotHolding ?subject))
       (HandAvailable)
-      (AtPosition ?subject ?direction ?reference)))
+      (AtPosition ?subject ?direction ?reference)
+      (forall (?region - region)
+        (when (and (not (= ?direction on)) (AtPosition ?reference on ?region))
+          (AtPosition ?subject on ?region)))))
 
   (:action open
     :parameters (?door - openable)
