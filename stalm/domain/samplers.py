@@ -39,10 +39,10 @@ from stalm.motion.grasps import (
     draw_placement,
     gripper_target,
     nearest_grasp_point,
-    offset_pose,
     sample_grasp_angles,
 )
-from stalm.motion.ik import IKSolution, solve_ik, solve_ik_from
+from stalm.motion.ik import solve_ik
+from stalm.motion.reach import leave_waypoints, reach_waypoints, solution_conf
 from stalm.world import robot as robot_model
 from stalm.world.relations import direction_between, supporting_region
 from stalm.world.scene import Sim
@@ -121,19 +121,6 @@ class Samplers:
     ) -> set[int]:
         return first_collision(self.sim, base, interpolate_waypoints(waypoints), ignore)
 
-    def offset_conf(
-        self,
-        base: tuple[float, float, float],
-        target: Pose3,
-        solution: IKSolution,
-        backoff: float = 0.0,
-        raise_by: float = 0.0,
-    ) -> tuple[float, ...]:
-        """The configuration with the gripper backed off along its approach axis or raised;
-        falls back to the target configuration itself when IK cannot reach the offset pose."""
-        near = solve_ik_from(self.sim, base, offset_pose(target, backoff, raise_by), solution)
-        return _conf(near if near is not None else solution)
-
     # ------------------------------------------------------------------ PICK
     def pick(
         self, state: State, action: Pick, rng: np.random.Generator
@@ -162,9 +149,8 @@ class Samplers:
             if solution is None:
                 failures.add("no_ik", f"no IK solution to grasp '{action.obj}'")
                 continue
-            grasp_conf = _conf(solution)
-            pre_conf = self.offset_conf(stand, target, solution, backoff=APPROACH_DISTANCE)
-            approach = [*robot_model.unfold(grasp_conf), pre_conf, grasp_conf]
+            grasp_conf = solution_conf(solution)
+            approach = reach_waypoints(self.sim, stand, target, solution, backoff=APPROACH_DISTANCE)
             hits = self.arm_motion_free(stand, approach, {body})
             if hits:
                 failures.add(
@@ -174,9 +160,8 @@ class Samplers:
             self.sim.set_arm(stand, solution.lift, solution.arm)
             grasp_pose = compose(invert(self.sim.gripper_pose()), self.sim.object_pose(action.obj))
             grasp = Grasp.make(action.obj, grasp_pose[0], grasp_pose[1])
-            up_conf = self.offset_conf(stand, target, solution, raise_by=LIFT_DISTANCE)
             self.sim.attach(grasp)
-            lift_off = [grasp_conf, up_conf, *robot_model.fold(grasp_conf)]
+            lift_off = leave_waypoints(self.sim, stand, target, solution, raise_by=LIFT_DISTANCE)
             hits = self.arm_motion_free(stand, lift_off, set())
             self.sim.attach(None)
             if hits:
@@ -260,18 +245,16 @@ class Samplers:
             if solution is None:
                 failures.add("no_ik", f"no IK solution to place '{action.obj}' on '{region.name}'")
                 continue
-            place_conf = _conf(solution)
-            above_conf = self.offset_conf(stand, hand, solution, raise_by=PLACE_CLEARANCE)
+            place_conf = solution_conf(solution)
             self.sim.attach(state.held, state.held_yaw_offset)
-            lower = [*robot_model.unfold(place_conf), above_conf, place_conf]
+            lower = reach_waypoints(self.sim, stand, hand, solution, raise_by=PLACE_CLEARANCE)
             hits = self.arm_motion_free(stand, lower, set())
             if hits:
                 failures.add("arm_collision", f"placing '{action.obj}' collides", self.names(hits))
                 continue
             self.sim.attach(None)
             self.sim.place_object(action.obj, placement)
-            back_conf = self.offset_conf(stand, hand, solution, backoff=APPROACH_DISTANCE)
-            retreat = [place_conf, back_conf, *robot_model.fold(place_conf)]
+            retreat = leave_waypoints(self.sim, stand, hand, solution, backoff=APPROACH_DISTANCE)
             hits = self.arm_motion_free(stand, retreat, {body})
             if hits:
                 failures.add(
@@ -352,10 +335,6 @@ class Samplers:
                     arm_waypoints=tuple(reach),
                 )
         return failures.result(f"'{action.door}' could not be opened")
-
-
-def _conf(solution: IKSolution) -> tuple[float, ...]:
-    return (solution.lift, *solution.arm)
 
 
 def _fmt(pose: tuple[float, float, float]) -> str:

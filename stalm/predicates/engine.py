@@ -45,10 +45,10 @@ from stalm.motion.grasps import (
     draw_placement,
     gripper_target,
     nearest_grasp_point,
-    offset_pose,
     sample_grasp_angles,
 )
-from stalm.motion.ik import IKSolution, solve_ik, solve_ik_from
+from stalm.motion.ik import IKSolution, solve_ik
+from stalm.motion.reach import leave_waypoints, reach_waypoints
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.sweeps import (
     ArmSegment,
@@ -61,7 +61,6 @@ from stalm.predicates.sweeps import (
 )
 from stalm.world.problem import Problem
 from stalm.world.relations import direction_between, supporting_region
-from stalm.world.robot import fold, unfold
 from stalm.world.scene import Sim
 from stalm.world.spec import RegionSpec
 from stalm.world.state import Grasp, ObjectPose, State
@@ -238,18 +237,6 @@ class PredicateEngine:
         self.sim.attach(None)
         return solve_ik(self.sim, stand, target, rng, self.settings.ik_attempts)
 
-    def _offset(
-        self,
-        stand: tuple[float, float, float],
-        target: Pose3,
-        solution: IKSolution,
-        backoff: float = 0.0,
-        raise_by: float = 0.0,
-    ) -> tuple[float, ...]:
-        near = solve_ik_from(self.sim, stand, offset_pose(target, backoff, raise_by), solution)
-        chosen = near if near is not None else solution
-        return (chosen.lift, *chosen.arm)
-
     def _pick_record(self, obj: str, pose: ObjectPose) -> PickRecord:
         region_name = supporting_region(self.spec, pose)
         assert region_name is not None, f"'{obj}' rests on no region"
@@ -267,13 +254,22 @@ class PredicateEngine:
             solution = self._ik(stand, target, rng)
             if solution is None:
                 continue
-            grasp_conf = (solution.lift, *solution.arm)
-            pre = self._offset(stand, target, solution, backoff=APPROACH_DISTANCE)
-            up = self._offset(stand, target, solution, raise_by=LIFT_DISTANCE)
             this_grasp = Grasp.make(obj, *compose(invert(target), object_pose))
             segments: tuple[Segment, ...] = (
-                ArmSegment(stand, _dense([*unfold(grasp_conf), pre, grasp_conf]), None, obj),
-                ArmSegment(stand, _dense([grasp_conf, up, *fold(grasp_conf)]), this_grasp, None),
+                ArmSegment(
+                    stand,
+                    _dense(reach_waypoints(self.sim, stand, target, solution, APPROACH_DISTANCE)),
+                    None,
+                    obj,
+                ),
+                ArmSegment(
+                    stand,
+                    _dense(
+                        leave_waypoints(self.sim, stand, target, solution, raise_by=LIFT_DISTANCE)
+                    ),
+                    this_grasp,
+                    None,
+                ),
             )
             self.sim.place_object(obj, pose)
             motion = self._sweep(segments)
@@ -303,14 +299,21 @@ class PredicateEngine:
         solution = self._ik(stand, hand, rng)
         if solution is None:
             return None
-        place_conf = (solution.lift, *solution.arm)
-        above = self._offset(stand, hand, solution, raise_by=PLACE_CLEARANCE)
-        back = self._offset(stand, hand, solution, backoff=APPROACH_DISTANCE)
         original = self.sim.object_pose(obj)
         segments: tuple[Segment, ...] = (
-            ArmSegment(stand, _dense([*unfold(place_conf), above, place_conf]), grasp, None),
+            ArmSegment(
+                stand,
+                _dense(reach_waypoints(self.sim, stand, hand, solution, raise_by=PLACE_CLEARANCE)),
+                grasp,
+                None,
+            ),
             ObjectAt(obj, pose),
-            ArmSegment(stand, _dense([place_conf, back, *fold(place_conf)]), None, obj),
+            ArmSegment(
+                stand,
+                _dense(leave_waypoints(self.sim, stand, hand, solution, backoff=APPROACH_DISTANCE)),
+                None,
+                obj,
+            ),
         )
         motion = self._sweep(segments)
         self.sim.place_object(obj, _pose_of(original))
