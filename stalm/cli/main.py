@@ -28,6 +28,7 @@ def _register_commands() -> None:
     """Import the command modules; each adds its commands to :data:`app` (once)."""
     from stalm.cli import (  # noqa: F401
         bench_commands,
+        experiment_commands,
         llm_commands,
         predicate_commands,
         solve_commands,

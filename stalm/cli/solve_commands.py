@@ -52,9 +52,6 @@ def _print_result(result: PlanResult) -> None:
         out.print(f"failed task plans by kind: {result.llm_plan_failures}", highlight=False)
 
 
-PLANNERS = ("stalm", "stalm-no-uct", "uct", "uct-hcount")
-
-
 @app.command("solve")
 def solve_command(
     problem: Annotated[str, typer.Argument(help="Problem name (P5) or path to a problem file.")],
@@ -80,7 +77,9 @@ def solve_command(
     planner_name: Annotated[
         str,
         typer.Option(
-            "--planner", help="stalm (default), stalm-no-uct, or uct (no model, N_budget 35)."
+            "--planner",
+            help="stalm (default) or a baseline: stalm-no-uct, uct, uct-hcount, ep-saycan, "
+            "iterative-replanning, llm-mcts, pddlstream-adaptive (see `stalm planners`).",
         ),
     ] = "stalm",
     sims: Annotated[
@@ -113,43 +112,33 @@ def solve_command(
         Path | None, typer.Option("--gif", help="Write an animation of the plan.")
     ] = None,
 ) -> None:
-    """Solve a problem with STaLM: LLM task plans, Concretize, warm-started hybrid UCT."""
-    from stalm.llm.backends import make_backend
-    from stalm.llm.cache import CachedBackend
+    """Solve a problem with STaLM (or a baseline) and execute the plan in simulation."""
     from stalm.llm.prompt import PromptOptions
-    from stalm.planners.proposers import LLMProposer, TaskPlanProposer
-    from stalm.planners.stalm import StalmPlanner, StalmSettings
-    from stalm.planners.symbolic import SymbolicProposer
-    from stalm.search import SearchSettings
+    from stalm.planners.registry import PlannerConfig, build_planner, planner_entry
 
     loaded = load_problem(problem)
-    if planner_name not in PLANNERS:
-        raise StalmError(f"unknown planner '{planner_name}' (available: {', '.join(PLANNERS)})")
     if no_uct:
         planner_name = "stalm-no-uct"
-    if proposer_name not in ("llm", "symbolic"):
-        raise StalmError(f"unknown proposer '{proposer_name}' (available: llm, symbolic)")
-    proposer: TaskPlanProposer | None = None
-    if planner_name not in ("uct", "uct-hcount") and proposer_name == "symbolic":
-        proposer = SymbolicProposer()
-    elif planner_name not in ("uct", "uct-hcount"):
-        backend = CachedBackend(make_backend(llm), mode=cache)
+    entry = planner_entry(planner_name)
+    config = PlannerConfig(
+        llm=llm,
+        proposer=proposer_name,
+        sims=sims,
+        batch=batch,
+        constrained=constrained,
+        prompt=PromptOptions(
+            occlusion_predicates=not no_occlusion, ask_challenges=not no_challenges
+        ),
+        cache_mode=cache,
+    )
+    if entry.uses_llm and (proposer_name == "llm" or entry.name != "stalm"):
+        from stalm.llm.backends import make_backend
+
+        backend = make_backend(llm)  # no model is loaded here
         if backend.name == "embedded":
             console.print(f"[yellow]note:[/] {backend.description}", highlight=False)
-        options = PromptOptions(
-            occlusion_predicates=not no_occlusion, ask_challenges=not no_challenges
-        )
-        use_constraint = backend.name == "embedded" if constrained is None else constrained
-        proposer = LLMProposer(backend, options, constrained=use_constraint)
-    budget = sims if sims is not None else (35 if planner_name.startswith("uct") else 30)
-    settings = StalmSettings(
-        n_batch=batch,
-        search=SearchSettings(budget=budget),
-        use_tree=planner_name != "stalm-no-uct",
-        leaf_value="hcount" if planner_name == "uct-hcount" else "rollout",
-    )
-    with console.status(f"solving {loaded.name}...") as status:
-        planner = StalmPlanner(proposer, settings, progress=lambda m: status.update(m))
+    with console.status(f"solving {loaded.name} with {entry.name}...") as status:
+        planner = build_planner(entry.name, config, progress=lambda m: status.update(m))
         result = planner.solve(loaded, seed, time_budget)
     _print_result(result)
     if json_out is not None:
@@ -213,3 +202,17 @@ def replay_command(
             save_gif(plan_frames(sim, report.states[0], pairs), gif)
     if not report.reached_goal:
         raise typer.Exit(1)
+
+
+@app.command("planners")
+def planners_command() -> None:
+    """List every planner `stalm solve --planner` and `stalm experiment` accept."""
+    from stalm.planners.registry import planners
+
+    table = Table(show_header=True)
+    table.add_column("planner")
+    table.add_column("model")
+    table.add_column("what it does")
+    for entry in planners().values():
+        table.add_row(entry.name, "yes" if entry.uses_llm else "no", entry.description)
+    out.print(table)
