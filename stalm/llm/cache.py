@@ -236,6 +236,25 @@ class ReplyCache:
             (count,) = conn.execute("SELECT COUNT(*) FROM replies").fetchone()
         return int(count)
 
+    def merge_from(self, other: str | os.PathLike[str]) -> int:
+        """Add every reply of the cache file ``other`` that this cache lacks; return how many.
+
+        How replies made on other machines (Ray workers) come home: stored replies are never
+        overwritten, so merging is idempotent and order-free.
+        """
+        source = Path(other)
+        if not source.is_file():
+            raise StalmError(f"no reply cache to merge at {source}")
+        before = len(self)
+        try:
+            with self._connect() as conn:
+                conn.execute("ATTACH DATABASE ? AS other", (str(source),))
+                conn.execute("INSERT OR IGNORE INTO prompts SELECT * FROM other.prompts")
+                conn.execute("INSERT OR IGNORE INTO replies SELECT * FROM other.replies")
+        except sqlite3.Error as error:
+            raise StalmError(f"cannot merge the reply cache {source}: {error}") from error
+        return len(self) - before
+
     def export(self, destination: str | os.PathLike[str]) -> Path:
         """Copy the cache into one consistent file (safe while others write) to send along."""
         target = Path(destination).expanduser()

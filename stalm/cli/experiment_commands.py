@@ -1,0 +1,187 @@
+"""``stalm experiment`` (run a paper table's trials, resumably) and ``stalm report``."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
+
+from stalm.cli.main import app
+from stalm.errors import StalmError
+
+console = Console(stderr=True)
+out = Console()
+
+
+def _names(text: str | None) -> tuple[str, ...] | None:
+    if not text:
+        return None
+    return tuple(part.strip() for part in text.split(",") if part.strip())
+
+
+@app.command("experiment")
+def experiment_command(
+    name: Annotated[str, typer.Argument(help="table2, table3, table4 or figure5.")],
+    problems: Annotated[
+        str | None, typer.Option(help="Comma-separated problems (default P1..P6).")
+    ] = None,
+    planners: Annotated[
+        str | None,
+        typer.Option(
+            help="Comma-separated rows: planner names (see `stalm planners`) or stalm-symbolic "
+            "(STaLM with the Fast Downward proposer). Default: the paper's rows."
+        ),
+    ] = None,
+    trials: Annotated[int, typer.Option(help="Trials per problem and planner.")] = 50,
+    llm: Annotated[
+        list[str] | None,
+        typer.Option(help="Model for the model-based rows; repeat it for table3's two models."),
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Master seed; trial seeds derive from it.")] = 0,
+    budget_scale: Annotated[
+        float, typer.Option(help="Multiply the paper's time budgets (300/600 s) by this.")
+    ] = 1.0,
+    time_budget: Annotated[
+        float | None, typer.Option("--time-budget", help="One budget (s) for every problem.")
+    ] = None,
+    sims: Annotated[int | None, typer.Option(help="N_budget (default: the paper's).")] = None,
+    workers: Annotated[int, typer.Option(help="Trials run at once, one process each.")] = 1,
+    ray: Annotated[
+        str | None,
+        typer.Option("--ray", help="Run on a Ray cluster: 'auto', 'ray://host:10001' or 'local'."),
+    ] = None,
+    cache: Annotated[str, typer.Option(help="Reply cache mode: use, refresh, off, replay.")] = (
+        "use"
+    ),
+    results: Annotated[
+        Path | None,
+        typer.Option(help="The JSON-lines results file (default results/NAME.jsonl)."),
+    ] = None,
+    report_dir: Annotated[
+        Path | None, typer.Option(help="Write the report here when done (default: beside).")
+    ] = None,
+) -> None:
+    """Run a paper experiment's trials; re-running the same command resumes it."""
+    from stalm.experiments.results_log import ResultsLog
+    from stalm.experiments.runner import run_experiment
+    from stalm.experiments.suites import build_plan, trial_specs
+    from stalm.planners.registry import PlannerConfig
+
+    plan = build_plan(
+        name,
+        planners=_names(planners),
+        problems=_names(problems),
+        trials=trials,
+        llms=tuple(llm or ()),
+        master_seed=seed,
+        budget_scale=budget_scale,
+        time_budget_s=time_budget,
+        base=PlannerConfig(sims=sims, cache_mode=cache),
+    )
+    specs = trial_specs(plan)
+    log = ResultsLog(results or Path("results") / f"{name}.jsonl")
+    loaded = log.load()
+    for problem in loaded.problems:
+        console.print(f"[yellow]warning:[/] {problem}", highlight=False)
+    finished = loaded.finished_keys()
+    done_before = sum(spec.key in finished for spec in specs)
+    rows = ", ".join(arm.label for arm in plan.arms)
+    console.print(
+        f"{name}: {len(specs)} trials ({rows} on {', '.join(plan.problems)}, {plan.trials} "
+        f"each); {done_before} already in {log.path}",
+        highlight=False,
+    )
+    solved = 0
+    ran = 0
+    started = time.monotonic()
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("solved {task.fields[solved]}"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+        console=console,
+        transient=False,
+    ) as progress:
+        task = progress.add_task(name, total=len(specs) - done_before, solved=0)
+
+        def on_record(record: dict[str, Any]) -> None:
+            nonlocal solved, ran
+            ran += 1
+            solved += bool(record.get("success"))
+            progress.update(task, advance=1, solved=f"{solved}/{ran}")
+            status = "solved" if record.get("success") else record.get("termination")
+            progress.console.print(
+                f"{record['arm']} {record['problem']} trial {record['trial']}: {status} "
+                f"in {float(record.get('time_s', 0.0)):.1f} s",
+                highlight=False,
+            )
+
+        try:
+            summary = run_experiment(
+                specs, log, workers=workers, ray_address=ray, on_record=on_record
+            )
+        except KeyboardInterrupt:
+            console.print(
+                f"[yellow]stopped:[/] {ran} trials saved in {log.path}; run the same command "
+                "to resume",
+                highlight=False,
+            )
+            raise typer.Exit(130) from None
+    console.print(
+        f"ran {summary.ran} trials ({summary.solved} solved, {summary.errors} errors) in "
+        f"{time.monotonic() - started:.0f} s; {summary.skipped} were already done",
+        highlight=False,
+    )
+    _report([log.path], report_dir or log.path.parent, log.path.stem, paper=name == "table2")
+
+
+def _report(paths: list[Path], out_dir: Path, name: str, *, paper: bool) -> None:
+    from stalm.experiments.report import write_report
+    from stalm.experiments.results_log import read_records
+
+    records: list[dict[str, Any]] = []
+    for path in paths:
+        if not path.exists():
+            raise StalmError(f"no results file at {path}")
+        loaded = read_records(path)
+        for problem in loaded.problems:
+            console.print(f"[yellow]warning:[/] {problem}", highlight=False)
+        if loaded.skipped_partial_line:
+            console.print(f"[yellow]warning:[/] {path}: skipped a partial last line")
+        records += loaded.records
+    if not records:
+        raise StalmError(f"no trial records in {', '.join(str(p) for p in paths)}")
+    text, files = write_report(records, out_dir, name=name, paper=paper)
+    out.print(text, highlight=False, markup=False)
+    written = [files.markdown, files.csv, *files.plots]
+    console.print("wrote " + ", ".join(str(p) for p in written), highlight=False)
+
+
+@app.command("report")
+def report_command(
+    results: Annotated[list[Path], typer.Argument(help="JSON-lines results files.")],
+    out_dir: Annotated[
+        Path | None, typer.Option("--out", help="Folder for the .md, .csv and plots.")
+    ] = None,
+    name: Annotated[str | None, typer.Option(help="Base name of the files written.")] = None,
+    paper: Annotated[
+        bool, typer.Option("--paper/--no-paper", help="Show the paper's Table 2 numbers beside.")
+    ] = False,
+) -> None:
+    """Print the tables of finished trials like the paper's; save Markdown, CSV and plots."""
+    first = results[0]
+    _report(results, out_dir or first.parent, name or first.stem, paper=paper)

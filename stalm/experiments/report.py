@@ -1,0 +1,294 @@
+"""Tables and plots from trial records, laid out like the paper's.
+
+A cell is one (row label, problem): the success rate over its trials and the mean planning
+time of the successes, or ``t/o`` when none succeeded (the paper's convention). Trials that
+ended in a planner exception are counted apart (``errors``), never as time-outs. Figure 5 is
+the share of the proposer's failed task plans by kind, per problem, over every record that
+has them (STaLM's and STaLM w/o UCT's).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections import defaultdict
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from stalm.experiments.paper_tables import TABLE2
+
+FAILURE_KINDS = (
+    "precondition_violation",
+    "lack_of_3d_understanding",
+    "partially_achieved_goal",
+    "unparseable",
+)
+
+
+@dataclass(frozen=True)
+class Cell:
+    """The outcome of one row on one problem."""
+
+    trials: int
+    successes: int
+    mean_success_time_s: float | None
+    timeouts: int
+    errors: int
+    budget_s: float
+
+    @property
+    def success_rate(self) -> float:
+        return self.successes / self.trials if self.trials else 0.0
+
+
+@dataclass(frozen=True)
+class Table:
+    """Rows (arm labels) by columns (problems), in first-seen order."""
+
+    rows: tuple[str, ...]
+    problems: tuple[str, ...]
+    cells: dict[tuple[str, str], Cell]
+    success_times: dict[tuple[str, str], tuple[float, ...]]
+
+
+def latest_records(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One record per trial key, the newest (a retried trial's final outcome)."""
+    latest: dict[str, dict[str, Any]] = {}
+    for record in records:
+        latest[str(record["key"])] = record
+    return list(latest.values())
+
+
+def build_table(records: Iterable[dict[str, Any]]) -> Table:
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
+    rows: list[str] = []
+    problems: list[str] = []
+    for record in latest_records(records):
+        row, problem = str(record["arm"]), str(record["problem"])
+        if row not in rows:
+            rows.append(row)
+        if problem not in problems:
+            problems.append(problem)
+        groups[(row, problem)].append(record)
+    cells = {}
+    times = {}
+    for key, group in groups.items():
+        success = [float(r["time_s"]) for r in group if r.get("success")]
+        cells[key] = Cell(
+            trials=len(group),
+            successes=len(success),
+            mean_success_time_s=sum(success) / len(success) if success else None,
+            timeouts=sum(r.get("termination") == "timeout" for r in group),
+            errors=sum(r.get("termination") == "error" for r in group),
+            budget_s=max(float(r.get("time_budget_s", 0.0)) for r in group),
+        )
+        times[key] = tuple(sorted(success))
+    return Table(tuple(rows), tuple(sorted(problems)), cells, times)
+
+
+def _time_text(seconds: float | None) -> str:
+    return "t/o" if seconds is None else f"{seconds:.1f}"
+
+
+def markdown_table(table: Table, *, paper: bool = False) -> str:
+    """The paper's layout: two lines per row (success rate, time), a column per problem.
+
+    With ``paper``, rows whose label is a Table 2 planner get the paper's numbers beside
+    ours as ``ours (paper)``.
+    """
+    head = "| Method | Metric | " + " | ".join(table.problems) + " |"
+    lines = [head, "| --- | --- | " + " | ".join("---" for _ in table.problems) + " |"]
+    for row in table.rows:
+        rates, times = [], []
+        for problem in table.problems:
+            cell = table.cells.get((row, problem))
+            published = TABLE2.get(row, {}).get(problem) if paper else None
+            if cell is None:
+                rates.append("–")
+                times.append("–")
+                continue
+            rate = f"{cell.success_rate:.2f} ({cell.successes}/{cell.trials})"
+            time = _time_text(cell.mean_success_time_s)
+            if cell.errors:
+                rate += f", {cell.errors} err"
+            if published is not None:
+                rate += f" [{published[0]:.2f}]"
+                time += f" [{_time_text(published[1])}]"
+            rates.append(rate)
+            times.append(time)
+        lines.append(f"| {row} | Success rate | " + " | ".join(rates) + " |")
+        lines.append("|  | Time (s) | " + " | ".join(times) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def csv_table(table: Table) -> str:
+    """One line per cell, for spreadsheets and scripts."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(
+        [
+            "planner",
+            "problem",
+            "trials",
+            "successes",
+            "success_rate",
+            "mean_success_time_s",
+            "timeouts",
+            "errors",
+            "budget_s",
+        ]
+    )
+    for row in table.rows:
+        for problem in table.problems:
+            cell = table.cells.get((row, problem))
+            if cell is None:
+                continue
+            mean = cell.mean_success_time_s
+            writer.writerow(
+                [
+                    row,
+                    problem,
+                    cell.trials,
+                    cell.successes,
+                    f"{cell.success_rate:.4f}",
+                    "" if mean is None else f"{mean:.3f}",
+                    cell.timeouts,
+                    cell.errors,
+                    f"{cell.budget_s:g}",
+                ]
+            )
+    return buffer.getvalue()
+
+
+def failure_shares(records: Iterable[dict[str, Any]]) -> dict[str, dict[str, float]]:
+    """Figure 5: per problem, each failure kind's share of the failed task plans."""
+    counts: dict[str, dict[str, int]] = defaultdict(lambda: dict.fromkeys(FAILURE_KINDS, 0))
+    for record in latest_records(records):
+        failures = record.get("llm_plan_failures") or {}
+        for kind, count in failures.items():
+            counts[str(record["problem"])][kind] = counts[str(record["problem"])].get(kind, 0) + (
+                int(count)
+            )
+    shares = {}
+    for problem in sorted(counts):
+        total = sum(counts[problem].values())
+        if total:
+            shares[problem] = {kind: n / total for kind, n in counts[problem].items()}
+    return shares
+
+
+def markdown_failures(shares: dict[str, dict[str, float]]) -> str:
+    if not shares:
+        return "No record holds failed task plans (Figure 5 needs STaLM's records).\n"
+    kinds = [k for k in FAILURE_KINDS if any(s.get(k) for s in shares.values())]
+    lines = ["| Problem | " + " | ".join(k.replace("_", " ") for k in kinds) + " |"]
+    lines.append("| --- | " + " | ".join("---" for _ in kinds) + " |")
+    for problem, share in shares.items():
+        lines.append(f"| {problem} | " + " | ".join(f"{share.get(k, 0):.2f}" for k in kinds) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def plot_success_over_time(table: Table, path: Path) -> Path:
+    """Per problem, the share of trials solved by time t for every row (PNG or SVG by the
+    suffix of ``path``)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    columns = min(3, len(table.problems)) or 1
+    lines = math.ceil(len(table.problems) / columns) or 1
+    figure, axes = plt.subplots(lines, columns, figsize=(4.2 * columns, 3.2 * lines), squeeze=False)
+    for index, problem in enumerate(table.problems):
+        axis = axes[index // columns][index % columns]
+        budget = max(
+            (table.cells[(r, problem)].budget_s for r in table.rows if (r, problem) in table.cells),
+            default=1.0,
+        )
+        for row in table.rows:
+            cell = table.cells.get((row, problem))
+            if cell is None:
+                continue
+            solved = table.success_times[(row, problem)]
+            xs = [0.0, *solved, budget]
+            ys = [0.0, *[(i + 1) / cell.trials for i in range(len(solved))], cell.success_rate]
+            axis.step(xs, ys, where="post", label=row)
+        axis.set_title(problem)
+        axis.set_xlim(0, budget)
+        axis.set_ylim(0, 1.02)
+        axis.set_xlabel("planning time (s)")
+        axis.set_ylabel("success rate")
+    for index in range(len(table.problems), lines * columns):
+        axes[index // columns][index % columns].axis("off")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    figure.legend(handles, labels, loc="lower center", ncol=min(4, len(labels) or 1))
+    figure.tight_layout(rect=(0, 0.08, 1, 1))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path)
+    plt.close(figure)
+    return path
+
+
+def plot_failures(shares: dict[str, dict[str, float]], path: Path) -> Path:
+    """Figure 5 as stacked bars: the failure kinds' shares per problem."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axis = plt.subplots(figsize=(6, 3.4))
+    problems = list(shares)
+    bottom = [0.0] * len(problems)
+    for kind in FAILURE_KINDS:
+        values = [shares[p].get(kind, 0.0) for p in problems]
+        if not any(values):
+            continue
+        axis.bar(problems, values, bottom=bottom, label=kind.replace("_", " "))
+        bottom = [b + v for b, v in zip(bottom, values, strict=True)]
+    axis.set_ylabel("share of failed task plans")
+    axis.set_ylim(0, 1)
+    axis.legend(fontsize="small")
+    figure.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path)
+    plt.close(figure)
+    return path
+
+
+@dataclass(frozen=True)
+class ReportFiles:
+    markdown: Path
+    csv: Path
+    plots: tuple[Path, ...]
+
+
+def write_report(
+    records: Sequence[dict[str, Any]],
+    out_dir: Path,
+    *,
+    name: str = "report",
+    paper: bool = False,
+    formats: Sequence[str] = ("png", "svg"),
+) -> tuple[str, ReportFiles]:
+    """Write ``name``.md, ``name``.csv and the plots into ``out_dir``; return the Markdown."""
+    table = build_table(records)
+    shares = failure_shares(records)
+    text = "## Success rate and mean planning time of successes\n\n"
+    text += markdown_table(table, paper=paper)
+    if paper:
+        text += "\nIn brackets: the paper's Table 2 (50 trials, GPT-4-turbo, full budgets).\n"
+    text += "\n## Failed task plans by kind (Figure 5)\n\n" + markdown_failures(shares)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    markdown_path = out_dir / f"{name}.md"
+    markdown_path.write_text(text, encoding="utf-8")
+    csv_path = out_dir / f"{name}.csv"
+    csv_path.write_text(csv_table(table), encoding="utf-8")
+    plots = []
+    for suffix in formats:
+        plots.append(plot_success_over_time(table, out_dir / f"{name}-success.{suffix}"))
+        if shares:
+            plots.append(plot_failures(shares, out_dir / f"{name}-failures.{suffix}"))
+    return text, ReportFiles(markdown_path, csv_path, tuple(plots))

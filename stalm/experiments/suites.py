@@ -1,0 +1,147 @@
+"""The paper's experiments as lists of trials: Table 2, Table 3, Table 4 and Figure 5.
+
+An :class:`ExperimentPlan` fixes the arms (rows), problems (columns), trial count, master seed
+and budgets; :func:`trial_specs` expands it into one :class:`TrialSpec` per (arm, problem,
+trial). Budgets are the problem files' (the paper's 300 s for P1, P2, P4 and 600 s for P3, P5,
+P6) times ``budget_scale``, unless ``time_budget_s`` fixes one for all.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from stalm.errors import StalmError
+from stalm.experiments.trials import Arm, TrialSpec, check_problem_name, derive_seed
+from stalm.llm.prompt import PromptOptions
+from stalm.planners.registry import PlannerConfig, planner_entry
+
+EXPERIMENTS = ("table2", "table3", "table4", "figure5")
+TABLE2_PLANNERS = (
+    "uct",
+    "uct-hcount",
+    "pddlstream-adaptive",
+    "ep-saycan",
+    "iterative-replanning",
+    "llm-mcts",
+    "stalm",
+)
+ARM_ALIASES = {"stalm-symbolic": ("stalm", "symbolic")}
+"""Row names that are a planner with a non-default proposer (no model at all)."""
+PAPER_TRIALS = 50
+ALL_PROBLEMS = ("P1", "P2", "P3", "P4", "P5", "P6")
+
+
+@dataclass(frozen=True)
+class ExperimentPlan:
+    """What one ``stalm experiment`` command runs."""
+
+    name: str
+    arms: tuple[Arm, ...]
+    problems: tuple[str, ...] = ALL_PROBLEMS
+    trials: int = PAPER_TRIALS
+    master_seed: int = 0
+    budget_scale: float = 1.0
+    time_budget_s: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.trials < 1:
+            raise StalmError(f"--trials must be at least 1, got {self.trials}")
+        if self.budget_scale <= 0:
+            raise StalmError(f"--budget-scale must be positive, got {self.budget_scale}")
+        if self.time_budget_s is not None and self.time_budget_s <= 0:
+            raise StalmError(f"--time-budget must be positive, got {self.time_budget_s}")
+        if not self.arms:
+            raise StalmError(f"experiment {self.name} has no planners to run")
+
+
+def arm_for(name: str, base: PlannerConfig, label: str | None = None) -> Arm:
+    """The arm a ``--planners`` entry names (a planner or an alias such as stalm-symbolic)."""
+    planner, proposer = ARM_ALIASES.get(name, (name, base.proposer))
+    planner_entry(planner)  # an unknown name fails here, naming the choices
+    return Arm(label or name, planner, replace(base, proposer=proposer))
+
+
+def build_plan(
+    name: str,
+    *,
+    planners: tuple[str, ...] | None = None,
+    problems: tuple[str, ...] | None = None,
+    trials: int = PAPER_TRIALS,
+    llms: tuple[str, ...] = (),
+    master_seed: int = 0,
+    budget_scale: float = 1.0,
+    time_budget_s: float | None = None,
+    base: PlannerConfig | None = None,
+) -> ExperimentPlan:
+    """The arms of experiment ``name`` (see the module docstring) with the caller's choices.
+
+    * table2: ``planners`` (default: the paper's seven rows) with one model (``llms[0]``).
+    * table3: STaLM and STaLM w/o UCT for each model in ``llms`` (the paper: two models).
+    * table4: STaLM with the four prompt ablations (occlusion predicates x challenges).
+    * figure5: STaLM, whose records carry the failure kinds of every task plan it tried.
+    """
+    if name not in EXPERIMENTS:
+        raise StalmError(f"unknown experiment '{name}' (available: {', '.join(EXPERIMENTS)})")
+    base = base or PlannerConfig()
+    first_llm = llms[0] if llms else base.llm
+    base = replace(base, llm=first_llm)
+    arms: list[Arm]
+    if name == "table2":
+        arms = [arm_for(p, base) for p in planners or TABLE2_PLANNERS]
+    elif name == "table3":
+        models = llms or (base.llm or "embedded",)
+        arms = []
+        for model in models:
+            config = replace(base, llm=model)
+            for planner in planners or ("stalm", "stalm-no-uct"):
+                arms.append(arm_for(planner, config, f"{planner} [{model}]"))
+    elif name == "table4":
+        arms = []
+        for occlusion in (True, False):
+            for challenges in (True, False):
+                prompt = PromptOptions(occlusion_predicates=occlusion, ask_challenges=challenges)
+                label = "stalm " + ", ".join(
+                    [
+                        "occlusion" if occlusion else "no occlusion",
+                        "challenges" if challenges else "no challenges",
+                    ]
+                )
+                arms.append(arm_for("stalm", replace(base, prompt=prompt), label))
+    else:
+        arms = [arm_for(p, base) for p in planners or ("stalm",)]
+    labels = [arm.label for arm in arms]
+    if len(set(labels)) != len(labels):
+        raise StalmError(f"a planner is listed twice: {', '.join(labels)}")
+    return ExperimentPlan(
+        name=name,
+        arms=tuple(arms),
+        problems=problems or ALL_PROBLEMS,
+        trials=trials,
+        master_seed=master_seed,
+        budget_scale=budget_scale,
+        time_budget_s=time_budget_s,
+    )
+
+
+def trial_specs(plan: ExperimentPlan) -> list[TrialSpec]:
+    """Every trial of ``plan``, trial-major: the first trial of every (problem, arm) comes
+    before any second trial, so a run stopped early still covers the whole table."""
+    loaded = {name: check_problem_name(name) for name in plan.problems}
+    specs = []
+    for trial in range(plan.trials):
+        for problem in plan.problems:
+            canonical, text, problem_budget = loaded[problem]
+            budget = plan.time_budget_s or problem_budget
+            for arm in plan.arms:
+                specs.append(
+                    TrialSpec(
+                        experiment=plan.name,
+                        arm=arm,
+                        problem=canonical,
+                        problem_yaml=text,
+                        trial=trial,
+                        seed=derive_seed(plan.master_seed, canonical, trial),
+                        time_budget_s=round(budget * plan.budget_scale, 3),
+                    )
+                )
+    return specs

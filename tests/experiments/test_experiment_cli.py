@@ -1,0 +1,143 @@
+"""The smoke configuration end to end: ``stalm experiment`` then ``stalm report``; a run killed
+mid-way and resumed; the same trials on a real local Ray instance.
+
+Trials are real (PyBullet, the planners, Fast Downward) with budgets of a few seconds, so
+success is not asserted; that every trial has one well-formed record, is.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from stalm.cli.main import main
+from stalm.experiments.results_log import ResultsLog, read_records
+from stalm.experiments.runner import run_experiment
+from stalm.experiments.suites import build_plan, trial_specs
+
+SMOKE = ["--problems", "P1,P2", "--planners", "uct,stalm-symbolic", "--trials", "2"]
+
+
+def run_cli(monkeypatch: pytest.MonkeyPatch, *args: str) -> int:
+    monkeypatch.setattr(sys, "argv", ["stalm", *args])
+    try:
+        main()
+    except SystemExit as done:
+        return int(done.code or 0)
+    return 0
+
+
+def _check_records(records: tuple[dict, ...], count: int) -> None:
+    assert len(records) == count
+    assert len({r["key"] for r in records}) == count
+    for record in records:
+        assert record["termination"] in ("goal", "timeout", "horizon", "no_progress")
+        assert record["success"] == (record["termination"] == "goal")
+        assert record["time_s"] > 0
+        assert set(record["times"]) >= {"predicates", "llm", "tree_search", "total"}
+        assert record["versions"]["stalm"]
+
+
+@pytest.mark.slow
+def test_smoke_experiment_and_its_report(monkeypatch, tmp_path: Path, capsys) -> None:
+    results = tmp_path / "smoke.jsonl"
+    args = ["experiment", "table2", *SMOKE, "--time-budget", "3", "--results", str(results)]
+    assert run_cli(monkeypatch, *args, "--workers", "2") == 0
+    records = read_records(results).records
+    _check_records(records, 8)
+    assert {(r["arm"], r["problem"]) for r in records} == {
+        (arm, problem) for arm in ("uct", "stalm-symbolic") for problem in ("P1", "P2")
+    }
+    # the same command again: everything is done, nothing runs
+    capsys.readouterr()
+    assert run_cli(monkeypatch, *args) == 0
+    assert "ran 0 trials" in capsys.readouterr().err
+    assert len(read_records(results).records) == 8
+
+    out_dir = tmp_path / "report"
+    assert run_cli(monkeypatch, "report", str(results), "--out", str(out_dir), "--paper") == 0
+    markdown = (out_dir / "smoke.md").read_text()
+    assert "| uct | Success rate |" in markdown
+    assert "| stalm-symbolic | Success rate |" in markdown
+    rows = list(csv.DictReader((out_dir / "smoke.csv").open()))
+    assert sorted((r["planner"], r["problem"], r["trials"]) for r in rows) == [
+        ("stalm-symbolic", "P1", "2"),
+        ("stalm-symbolic", "P2", "2"),
+        ("uct", "P1", "2"),
+        ("uct", "P2", "2"),
+    ]
+    assert (out_dir / "smoke-success.png").exists()
+
+
+def test_report_of_a_missing_file_is_a_clear_error(monkeypatch, tmp_path: Path, capsys) -> None:
+    assert run_cli(monkeypatch, "report", str(tmp_path / "none.jsonl")) == 2
+    assert "no results file" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_killed_run_loses_no_finished_trial_and_resumes(tmp_path: Path) -> None:
+    results = tmp_path / "killed.jsonl"
+    command = [
+        sys.executable,
+        "-c",
+        "from stalm.cli.main import main; main()",
+        "experiment",
+        "table2",
+        "--problems",
+        "P2",
+        "--planners",
+        "uct",
+        "--trials",
+        "6",
+        "--time-budget",
+        "2",
+        "--results",
+        str(results),
+    ]
+    process = subprocess.Popen(
+        command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if results.exists() and results.read_text().count("\n") >= 2:
+            break
+        time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    before = results.read_text()
+    killed = read_records(results)
+    assert 2 <= len(killed.records) < 6
+    assert not killed.problems and not killed.skipped_partial_line
+
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
+    after = read_records(results)
+    _check_records(after.records, 6)
+    assert results.read_text().startswith(before)  # finished lines kept as they were
+    assert f"ran {6 - len(killed.records)} trials" in done.stderr
+
+
+@pytest.mark.slow
+def test_trials_on_a_local_ray_instance(tmp_path: Path) -> None:
+    ray = pytest.importorskip("ray")
+    plan = build_plan("table2", planners=("uct",), problems=("P2",), trials=2, time_budget_s=2.0)
+    log = ResultsLog(tmp_path / "ray.jsonl")
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        summary = run_experiment(trial_specs(plan), log, ray_address="auto")
+    finally:
+        ray.shutdown()
+    assert (summary.ran, summary.skipped) == (2, 0)
+    records = log.load().records
+    _check_records(records, 2)
+    assert {r["trial"] for r in records} == {0, 1}
+    assert all(r["host"] for r in records)
+    json.dumps(records)  # plain data all the way

@@ -1,0 +1,90 @@
+"""Report tables from hand-written records: rates, mean times of successes, t/o, Figure 5."""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+from typing import Any
+
+from stalm.experiments.report import (
+    build_table,
+    csv_table,
+    failure_shares,
+    markdown_table,
+    write_report,
+)
+
+
+def _record(key: str, arm: str, problem: str, success: bool, time_s: float, **extra: Any) -> dict:
+    termination = "goal" if success else extra.pop("termination", "timeout")
+    return {
+        "key": key,
+        "arm": arm,
+        "problem": problem,
+        "success": success,
+        "termination": termination,
+        "time_s": time_s,
+        "time_budget_s": 30.0,
+        **extra,
+    }
+
+
+RECORDS = [
+    _record("1", "stalm", "P1", True, 10.0, llm_plan_failures={"precondition_violation": 3}),
+    _record("2", "stalm", "P1", True, 20.0, llm_plan_failures={"lack_of_3d_understanding": 1}),
+    _record("3", "stalm", "P2", False, 30.0),
+    _record("4", "uct", "P1", False, 30.0),
+    _record("5", "uct", "P1", False, 3.0, termination="error"),
+    _record("6", "uct", "P2", True, 12.0),
+    _record("6", "uct", "P2", True, 14.0),  # a re-run of trial 6: the newest record counts
+]
+
+
+def test_cells_hold_rates_mean_success_times_timeouts_and_errors() -> None:
+    table = build_table(RECORDS)
+    assert table.rows == ("stalm", "uct")
+    assert table.problems == ("P1", "P2")
+    stalm_p1 = table.cells[("stalm", "P1")]
+    assert (stalm_p1.trials, stalm_p1.successes, stalm_p1.mean_success_time_s) == (2, 2, 15.0)
+    uct_p1 = table.cells[("uct", "P1")]
+    assert (uct_p1.success_rate, uct_p1.timeouts, uct_p1.errors) == (0.0, 1, 1)
+    assert table.cells[("uct", "P2")].mean_success_time_s == 14.0
+
+
+def test_markdown_is_the_papers_layout_with_t_o_and_the_papers_numbers() -> None:
+    text = markdown_table(build_table(RECORDS), paper=True)
+    lines = text.splitlines()
+    assert lines[0] == "| Method | Metric | P1 | P2 |"
+    assert lines[2].startswith("| stalm | Success rate | 1.00 (2/2) [1.00]")
+    assert lines[3] == "|  | Time (s) | 15.0 [31.2] | t/o [54.2] |"
+    assert "1 err" in lines[4]
+
+
+def test_csv_has_one_line_per_cell() -> None:
+    rows = list(csv.DictReader(io.StringIO(csv_table(build_table(RECORDS)))))
+    assert len(rows) == 4
+    uct_p1 = next(r for r in rows if r["planner"] == "uct" and r["problem"] == "P1")
+    assert uct_p1["mean_success_time_s"] == ""
+    assert uct_p1["errors"] == "1"
+
+
+def test_failure_shares_sum_to_one_per_problem() -> None:
+    shares = failure_shares(RECORDS)
+    assert list(shares) == ["P1"]
+    assert shares["P1"]["precondition_violation"] == 0.75
+    assert shares["P1"]["lack_of_3d_understanding"] == 0.25
+
+
+def test_write_report_saves_markdown_csv_and_plots(tmp_path: Path) -> None:
+    text, files = write_report(RECORDS, tmp_path, name="t", formats=("png", "svg"))
+    assert files.markdown.read_text() == text
+    assert "Figure 5" in text
+    assert {p.name for p in files.plots} == {
+        "t-success.png",
+        "t-success.svg",
+        "t-failures.png",
+        "t-failures.svg",
+    }
+    assert (tmp_path / "t-success.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert b"<svg" in (tmp_path / "t-failures.svg").read_bytes()[:400]

@@ -1,0 +1,89 @@
+"""Experiment plans: the paper's rows, shared seeds, scaled budgets, clear errors."""
+
+from __future__ import annotations
+
+import pytest
+
+from stalm.errors import StalmError
+from stalm.experiments.suites import TABLE2_PLANNERS, build_plan, trial_specs
+from stalm.experiments.trials import derive_seed
+
+
+def test_table2_defaults_to_the_papers_seven_rows_on_six_problems() -> None:
+    plan = build_plan("table2")
+    assert tuple(arm.label for arm in plan.arms) == TABLE2_PLANNERS
+    assert plan.problems == ("P1", "P2", "P3", "P4", "P5", "P6")
+    assert plan.trials == 50
+
+
+def test_every_planner_meets_the_same_seeds_and_budgets_are_scaled() -> None:
+    plan = build_plan(
+        "table2",
+        planners=("uct", "stalm-symbolic"),
+        problems=("P1", "P3"),
+        trials=2,
+        budget_scale=0.1,
+        master_seed=4,
+    )
+    specs = trial_specs(plan)
+    assert len(specs) == 2 * 2 * 2
+    by = {(s.arm.label, s.problem, s.trial): s for s in specs}
+    assert by[("uct", "P1", 1)].seed == by[("stalm-symbolic", "P1", 1)].seed
+    assert by[("uct", "P1", 0)].seed != by[("uct", "P1", 1)].seed
+    assert by[("uct", "P1", 0)].seed == derive_seed(4, "P1", 0) < 2**20
+    assert by[("uct", "P1", 0)].time_budget_s == pytest.approx(30.0)
+    assert by[("uct", "P3", 0)].time_budget_s == pytest.approx(60.0)
+    assert by[("stalm-symbolic", "P1", 0)].arm.config.proposer == "symbolic"
+    assert len({s.key for s in specs}) == len(specs)
+    # trial-major order: every (problem, planner) gets its first trial before any second
+    assert [s.trial for s in specs[:4]] == [0, 0, 0, 0]
+
+
+def test_table3_crosses_models_with_and_without_uct() -> None:
+    plan = build_plan("table3", llms=("embedded", "ollama:llama3.1"))
+    labels = [arm.label for arm in plan.arms]
+    assert labels == [
+        "stalm [embedded]",
+        "stalm-no-uct [embedded]",
+        "stalm [ollama:llama3.1]",
+        "stalm-no-uct [ollama:llama3.1]",
+    ]
+    assert plan.arms[2].config.llm == "ollama:llama3.1"
+
+
+def test_table4_is_the_four_prompt_switch_combinations() -> None:
+    plan = build_plan("table4")
+    switches = {
+        (a.config.prompt.occlusion_predicates, a.config.prompt.ask_challenges) for a in plan.arms
+    }
+    assert switches == {(True, True), (True, False), (False, True), (False, False)}
+    assert {a.planner for a in plan.arms} == {"stalm"}
+
+
+def test_changing_the_budget_changes_the_trial_key_but_not_the_cache_mode() -> None:
+    from dataclasses import replace
+
+    [spec] = trial_specs(build_plan("figure5", problems=("P2",), trials=1))
+    assert spec.key != replace(spec, time_budget_s=1.0).key
+    other = replace(spec.arm.config, cache_mode="replay")
+    assert spec.key == replace(spec, arm=replace(spec.arm, config=other)).key
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"name": "table9"}, "unknown experiment 'table9'"),
+        ({"name": "table2", "planners": ("uct", "nope")}, "unknown planner 'nope'"),
+        ({"name": "table2", "planners": ("uct", "uct")}, "listed twice"),
+        ({"name": "table2", "trials": 0}, "--trials"),
+        ({"name": "table2", "budget_scale": 0.0}, "--budget-scale"),
+    ],
+)
+def test_bad_choices_are_named(kwargs: dict[str, object], message: str) -> None:
+    with pytest.raises(StalmError, match=message):
+        build_plan(**kwargs)  # type: ignore[arg-type]
+
+
+def test_an_unknown_problem_is_named() -> None:
+    with pytest.raises(StalmError, match="P9"):
+        trial_specs(build_plan("table2", problems=("P9",), planners=("uct",)))
