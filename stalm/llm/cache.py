@@ -334,7 +334,8 @@ class CachedBackend:
         for start, length in _contiguous_runs(missing):
             sub_request = dataclasses.replace(request, n=length, seed=request.sample_seed(start))
             response = self._inner.complete(sub_request)
-            if len(response.replies) != length:
+            cut_short = request.deadline is not None and time.monotonic() >= request.deadline
+            if len(response.replies) != length and not cut_short:
                 raise StalmError(
                     f"backend {backend!r} (model {model!r}) returned {len(response.replies)} "
                     f"replies for {length} requested"
@@ -342,7 +343,12 @@ class CachedBackend:
             for offset, reply in enumerate(response.replies):
                 index = start + offset
                 replies[index] = reply
-                new_samples.append(CachedSample(keys[index], backend, model, request, index, reply))
+                if reply.finish_reason != "deadline":  # a cut reply is not the model's answer
+                    new_samples.append(
+                        CachedSample(keys[index], backend, model, request, index, reply)
+                    )
+            if cut_short:
+                break
         self._cache.put_many(new_samples)
         return LLMResponse(
             replies=tuple(reply for reply in replies if reply is not None),

@@ -47,8 +47,16 @@ class TaskPlanProposer(Protocol):
     def name(self) -> str: ...
 
     def propose(
-        self, problem: Problem, state: State, literals: Iterable[GroundLiteral], n: int, seed: int
-    ) -> Proposal: ...
+        self,
+        problem: Problem,
+        state: State,
+        literals: Iterable[GroundLiteral],
+        n: int,
+        seed: int,
+        deadline: float | None = None,
+    ) -> Proposal:
+        """Up to ``n`` task plans from ``state``; stop early at ``deadline`` (monotonic)."""
+        ...
 
 
 @dataclass
@@ -66,7 +74,13 @@ class LLMProposer:
         return f"llm:{self.backend.name}:{self.backend.model}"
 
     def propose(
-        self, problem: Problem, state: State, literals: Iterable[GroundLiteral], n: int, seed: int
+        self,
+        problem: Problem,
+        state: State,
+        literals: Iterable[GroundLiteral],
+        n: int,
+        seed: int,
+        deadline: float | None = None,
     ) -> Proposal:
         vocabulary = Vocabulary.from_problem(problem)
         prompt = problem_prompt(problem, literals, self.options)
@@ -79,13 +93,17 @@ class LLMProposer:
             max_tokens=self.max_tokens,
             seed=seed,
             constraint=constraint,
+            deadline=deadline,
         )
         start = time.perf_counter()
         response = self.backend.complete(request)
         seconds = time.perf_counter() - start
         plans: list[tuple[DiscreteAction, ...]] = []
         unparseable: list[str] = []
-        for text in response.texts:
+        for reply in response.replies:
+            if reply.finish_reason == "deadline":
+                continue  # cut off by the time budget: not the model's answer
+            text = reply.text
             if self.constrained and text.lstrip().startswith("{"):
                 # structured-output servers answer the JSON-schema form; read it as the template
                 try:

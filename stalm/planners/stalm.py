@@ -136,10 +136,18 @@ class StalmPlanner:
                 tick = time.monotonic()
                 self._say(f"step {len(executed)}: asking {self.proposer.name} for task plans")
                 proposal = self.proposer.propose(
-                    problem, state, predicates.literals, self.settings.n_batch, seed * 1000 + step
+                    problem,
+                    state,
+                    predicates.literals,
+                    self.settings.n_batch,
+                    seed * 1000 + step,
+                    deadline=deadline,
                 )
                 step += 1
                 clock.llm += time.monotonic() - tick
+                if time.monotonic() >= deadline:
+                    termination = "timeout"
+                    break
                 llm_calls += proposal.calls
                 prompt_tokens += proposal.prompt_tokens
                 completion_tokens += proposal.completion_tokens

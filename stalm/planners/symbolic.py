@@ -11,6 +11,7 @@ shapes: it has no way to tell that P5's grill must go last, which the tree searc
 from __future__ import annotations
 
 import importlib.util
+import resource
 import subprocess
 import sys
 import tempfile
@@ -46,16 +47,84 @@ def downward_binary() -> Path:
     return binary
 
 
-def _read_plan(text: str, vocabulary: Vocabulary) -> tuple[DiscreteAction, ...]:
-    """Fast Downward's plan file: one ``(op arg ...)`` per line, ``;`` comments."""
-    del vocabulary
-    actions = []
+def read_plan_steps(text: str) -> tuple[tuple[str, ...], ...]:
+    """Fast Downward's plan file as ``(operator, arg, ...)`` tuples: one ``(op arg ...)`` per
+    line, ``;`` comments skipped. Fast Downward writes names in lower case."""
+    steps = []
     for line in text.splitlines():
         line = line.strip()
         if not line or line.startswith(";"):
             continue
-        actions.append(discrete_from_json(line.strip("()").split()))
-    return tuple(actions)
+        steps.append(tuple(line.strip("()").split()))
+    return tuple(steps)
+
+
+def translate_task(work: Path, time_limit_s: float) -> None:
+    """Run Fast Downward's translator on ``domain.pddl`` and ``problem.pddl`` in ``work``,
+    writing ``task.sas`` there; raises :class:`StalmError` with its message if it fails."""
+    translate = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "fast_downward.translate",
+            "domain.pddl",
+            "problem.pddl",
+            "--sas-file",
+            "task.sas",
+        ],
+        cwd=work,
+        capture_output=True,
+        text=True,
+        timeout=time_limit_s,
+        check=False,
+    )
+    if translate.returncode != 0:
+        raise StalmError(f"Fast Downward's translator failed: {translate.stderr[-400:]}")
+
+
+@dataclass(frozen=True)
+class SearchRun:
+    """One run of Fast Downward's search on ``task.sas``: the plan file's text, or None."""
+
+    plan: str | None
+    output: str
+
+
+def search_task(
+    work: Path, search: str, time_limit_s: float, memory_limit_mb: int | None = None
+) -> SearchRun:
+    """Fast Downward's search binary with ``--search search`` on ``work/task.sas``.
+
+    ``memory_limit_mb`` caps the search's address space (as Fast Downward's own driver does);
+    a search that reaches it stops without a plan."""
+    plan_file = work / "sas_plan"
+    plan_file.unlink(missing_ok=True)
+
+    def limit_memory() -> None:
+        if memory_limit_mb is not None:
+            size = memory_limit_mb * 1024 * 1024
+            resource.setrlimit(resource.RLIMIT_AS, (size, size))
+
+    with (work / "task.sas").open() as task:
+        run = subprocess.run(
+            [str(downward_binary()), "--search", search],
+            stdin=task,
+            cwd=work,
+            capture_output=True,
+            text=True,
+            timeout=time_limit_s,
+            check=False,
+            preexec_fn=limit_memory if memory_limit_mb is not None else None,
+        )
+    if not plan_file.exists():
+        return SearchRun(None, run.stdout)
+    return SearchRun(plan_file.read_text(), run.stdout)
+
+
+def _read_plan(text: str, vocabulary: Vocabulary) -> tuple[DiscreteAction, ...]:
+    """Fast Downward's plan file: one ``(op arg ...)`` per line, ``;`` comments."""
+    del vocabulary
+    return tuple(discrete_from_json(list(step)) for step in read_plan_steps(text))
 
 
 @dataclass
@@ -69,9 +138,22 @@ class SymbolicProposer:
         return "symbolic:fast-downward"
 
     def propose(
-        self, problem: Problem, state: State, literals: Iterable[GroundLiteral], n: int, seed: int
+        self,
+        problem: Problem,
+        state: State,
+        literals: Iterable[GroundLiteral],
+        n: int,
+        seed: int,
+        deadline: float | None = None,
     ) -> Proposal:
         vocabulary = Vocabulary.from_problem(problem)
+
+        def limit() -> float:
+            """Each Fast Downward call gets its limit, or what is left before the deadline."""
+            if deadline is None:
+                return self.time_limit_s
+            return max(0.5, min(self.time_limit_s, deadline - time.monotonic()))
+
         start = time.perf_counter()
         plans: list[tuple[DiscreteAction, ...]] = []
         reasons: list[str] = []
@@ -81,41 +163,17 @@ class SymbolicProposer:
             (work / "problem.pddl").write_text(
                 problem_pddl(vocabulary, sorted(literals), goal_literals(problem), "state")
             )
-            translate = subprocess.run(
-                [
-                    sys.executable,
-                    "-m",
-                    "fast_downward.translate",
-                    "domain.pddl",
-                    "problem.pddl",
-                    "--sas-file",
-                    "task.sas",
-                ],
-                cwd=work,
-                capture_output=True,
-                text=True,
-                timeout=self.time_limit_s,
-                check=False,
-            )
-            if translate.returncode != 0:
-                raise StalmError(f"Fast Downward's translator failed: {translate.stderr[-400:]}")
+            translate_task(work, limit())
             for index in range(n):
-                plan_file = work / "sas_plan"
-                plan_file.unlink(missing_ok=True)
-                with (work / "task.sas").open() as task:
-                    search = subprocess.run(
-                        [str(downward_binary()), "--search", SEARCH.format(seed=seed + index)],
-                        stdin=task,
-                        cwd=work,
-                        capture_output=True,
-                        text=True,
-                        timeout=self.time_limit_s,
-                        check=False,
-                    )
-                if not plan_file.exists():
-                    reasons.append(_why(search.stdout))
+                if deadline is not None and time.monotonic() >= deadline:
+                    break
+                # Fast Downward takes a signed 32-bit seed
+                fd_seed = (seed + index) % 2**31
+                run = search_task(work, SEARCH.format(seed=fd_seed), limit())
+                if run.plan is None:
+                    reasons.append(_why(run.output))
                     continue
-                plan = _read_plan(plan_file.read_text(), vocabulary)
+                plan = _read_plan(run.plan, vocabulary)
                 if plan not in plans:
                     plans.append(plan)
         return Proposal(

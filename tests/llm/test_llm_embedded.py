@@ -122,3 +122,23 @@ def test_grammars_parse_in_llama_cpp_and_a_bad_one_is_an_error(
     broken = OutputConstraint("t", "root ::= ( unclosed", "{}")
     with pytest.raises(StalmError, match="cannot parse the output grammar"):
         backend.complete(LLMRequest(system="s", user="u", max_tokens=1, constraint=broken))
+
+
+def test_a_deadline_stops_sampling_and_cut_replies_are_not_cached(
+    backend: EmbeddedBackend, tmp_path
+) -> None:
+    import time
+
+    from stalm.llm.cache import CachedBackend, ReplyCache
+
+    request = LLMRequest(system="You answer briefly.", user="Say hi.", n=3, max_tokens=8, seed=1)
+    passed = dataclasses.replace(request, deadline=time.monotonic() - 1.0)
+    assert backend.complete(passed).replies == ()
+    cache = ReplyCache(tmp_path / "r.sqlite")
+    cached = CachedBackend(backend, cache)
+    assert cached.complete(passed).replies == ()
+    assert len(cache) == 0
+    # a generous deadline changes nothing, and the replies are cached under the usual keys
+    roomy = dataclasses.replace(request, deadline=time.monotonic() + 600)
+    assert cached.complete(roomy).texts == backend.complete(request).texts
+    assert len(cache) == 3

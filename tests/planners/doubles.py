@@ -24,7 +24,13 @@ class ScriptedSuffixProposer:
         self.calls = 0
 
     def propose(
-        self, problem: Problem, state: State, literals: Iterable[GroundLiteral], n: int, seed: int
+        self,
+        problem: Problem,
+        state: State,
+        literals: Iterable[GroundLiteral],
+        n: int,
+        seed: int,
+        deadline: float | None = None,
     ) -> Proposal:
         self.calls += 1
         suffixes = [

@@ -32,6 +32,10 @@ class LLMRequest:
     max_tokens: int = 1024
     seed: int | None = None
     constraint: OutputConstraint | None = None
+    deadline: float | None = None
+    """A ``time.monotonic()`` value: past it a backend starts no new sample and cuts a running
+    one (``finish_reason`` 'deadline'), so a trial's time budget bounds its model calls too.
+    It decides when to stop, not what is drawn, so it is not part of the cache key."""
 
     def __post_init__(self) -> None:
         # Batch size, temperature and token budget come from settings the CLI lets users
@@ -59,7 +63,8 @@ class LLMReply:
     Token counts add up over a response to what the server reported: a prompt shared by
     several samples of one server call is counted on the first of them only.
     ``finish_reason`` is the server's (``"stop"``, ``"length"``, ...) when it gave one; a
-    ``"length"`` reply was cut by ``max_tokens`` and will usually fail to parse.
+    ``"length"`` reply was cut by ``max_tokens`` and will usually fail to parse; a
+    ``"deadline"`` reply was cut by the request's deadline and is never cached.
     """
 
     text: str

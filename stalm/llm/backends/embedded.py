@@ -324,9 +324,15 @@ class EmbeddedBackend:
         # Evaluate the prompt once, minus its last token, from an empty cache: every sample
         # then re-evaluates that token and continues, so all samples share one code path.
         llama.reset()
-        llama.eval(tokens[:-1])
+        deadline = request.deadline
+        for start in range(0, len(tokens) - 1, _EVAL_CHUNK):
+            if _past(deadline):
+                return []  # the prompt alone outlasted the budget
+            llama.eval(tokens[start : min(start + _EVAL_CHUNK, len(tokens) - 1)])
         replies = []
         for index in range(request.n):
+            if _past(deadline):
+                break
             try:
                 result = llama.create_completion(
                     prompt=tokens,
@@ -335,6 +341,7 @@ class EmbeddedBackend:
                     seed=(base_seed + index) % _SEED_MODULUS,
                     grammar=grammar,
                     stop=stop or None,
+                    stopping_criteria=_deadline_criteria(deadline),
                 )
             except (ValueError, RuntimeError) as error:
                 raise StalmError(
@@ -349,8 +356,25 @@ class EmbeddedBackend:
                     prompt_tokens=int(usage["prompt_tokens"]) if index == 0 else 0,
                     completion_tokens=int(usage["completion_tokens"]),
                     latency_s=now - started,
-                    finish_reason=choice.get("finish_reason"),
+                    finish_reason="deadline" if _past(deadline) else choice.get("finish_reason"),
                 )
             )
             started = now
         return replies
+
+
+_EVAL_CHUNK = 512
+"""Prompt tokens evaluated between two looks at the deadline."""
+
+
+def _past(deadline: float | None) -> bool:
+    return deadline is not None and time.monotonic() >= deadline
+
+
+def _deadline_criteria(deadline: float | None) -> Any:
+    """llama.cpp stopping criteria that end generation at ``deadline`` (None: never)."""
+    if deadline is None:
+        return None
+    from llama_cpp import StoppingCriteriaList
+
+    return StoppingCriteriaList([lambda _tokens, _logits: _past(deadline)])
