@@ -8,6 +8,7 @@ from typing import Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
@@ -124,12 +125,17 @@ def experiment_command(
             solved += bool(record.get("success"))
             progress.update(task, advance=1, solved=f"{solved}/{ran}")
             status = "solved" if record.get("success") else record.get("termination")
+            if record.get("termination") == "error":
+                status = "[red]error[/]: " + escape(str(record.get("error")))
             progress.console.print(
                 f"{record['arm']} {record['problem']} trial {record['trial']}: {status} "
                 f"in {float(record.get('time_s', 0.0)):.1f} s",
                 highlight=False,
             )
+            if record.get("termination") == "error":
+                errors.append(f"{record['arm']} {record['problem']}: {record.get('error')}")
 
+        errors: list[str] = []
         try:
             summary = run_experiment(
                 specs, log, workers=workers, ray_address=ray, on_record=on_record
@@ -147,6 +153,13 @@ def experiment_command(
         highlight=False,
     )
     _report([log.path], report_dir or log.path.parent, log.path.stem, paper=name == "table2")
+    if errors:
+        console.print(
+            f"[red]{len(errors)} trials ended in an error[/] (a re-run retries them); the "
+            f"first: {errors[0]}",
+            highlight=False,
+        )
+        raise typer.Exit(1)
 
 
 def _report(paths: list[Path], out_dir: Path, name: str, *, paper: bool) -> None:

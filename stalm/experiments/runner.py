@@ -95,9 +95,9 @@ def _run_in_processes(todo: Sequence[TrialSpec], workers: int, keep: OnRecord) -
                     running.pop(future)
                     keep(future.result())
         except BaseException:
-            for future in running:
-                future.cancel()
+            # stop now: running trials are lost (their records were never written)
+            processes = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=False, cancel_futures=True)
-            for process in list(getattr(pool, "_processes", {}).values()):
+            for process in processes:
                 process.terminate()
             raise

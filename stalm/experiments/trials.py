@@ -105,11 +105,11 @@ def versions() -> dict[str, str]:
 def run_trial(spec: TrialSpec) -> dict[str, Any]:
     """Run one trial in this process and return its record (one JSON object).
 
-    A :class:`StalmError` (an unreachable server, a bad name) is raised to the caller: it
-    would fail every trial the same way, so the experiment stops with its message instead of
-    filling the log with copies of it. Any other exception is a bug in a planner; it is kept
-    as the trial's record (termination 'error', with the traceback's tail) so one bad trial
-    does not cost the run, and a re-run retries it.
+    An exception inside the planner does not stop the experiment: it becomes the trial's
+    record (termination 'error', the message and, for a bug, the traceback's tail), so no
+    finished trial is lost, the report counts errors apart from time-outs, and a re-run
+    retries the trial. A :class:`StalmError` raised while *building* the planner (a bad
+    model spec, a missing package) would fail every trial alike, so it is raised.
     """
     started = time.time()
     base: dict[str, Any] = {
@@ -135,14 +135,13 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
         planner = build_planner(spec.arm.planner, spec.arm.config)
         try:
             result = planner.solve(problem, spec.seed, spec.time_budget_s)
-        except StalmError:
-            raise
-        except Exception as error:  # a planner bug: keep it as data, see the docstring
-            tail = "".join(traceback.format_exception(error)[-6:])
+        except Exception as error:  # kept as data, see the docstring
+            user_error = isinstance(error, StalmError)
+            tail = "" if user_error else "".join(traceback.format_exception(error)[-6:])
             return base | {
                 "success": False,
                 "termination": "error",
-                "error": f"{type(error).__name__}: {error}",
+                "error": str(error) if user_error else f"{type(error).__name__}: {error}",
                 "traceback": tail,
                 "time_s": time.time() - started,
                 "finished_at": time.time(),
