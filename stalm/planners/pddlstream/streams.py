@@ -1,0 +1,362 @@
+"""The streams: ψ's samplers and motion planning, one call at a time, and the collision tests.
+
+PDDLStream's vocabulary for this domain:
+
+* ``sample-grasp(o) -> g``: a gripper pitch and yaw drawn from PICK's ranges (paper §4.1).
+* ``sample-pose(o, r) -> p``: a uniform placement on region r's usable area, with the yaw
+  PLACE keeps (``(Supported o p r)``).
+* ``sample-rel-pose(o, dir, o2, p2) -> p``: placements drawn as PLACE draws them, rejected
+  until they lie in ``dir`` of o2 standing at p2 (``(Rel o p dir o2 p2)``).
+* ``plan-pick(o, p, g) -> m`` / ``plan-place(o, p, g) -> m``: IK and the arm's reach and leave
+  waypoints at the region's standing pose, exactly as PICK and PLACE build them, checked
+  against the static scene only (``(PickKin o p g m)`` / ``(PlaceKin o p g m)``).
+* ``plan-open(d) -> m``: the door's handle motion from its nearest standing pose.
+* Tests: ``Collides(m, o2, p2)`` (the motion, its base route or the door it swings touches o2
+  standing at p2) and ``Crosses(m, d)`` (they pass door d's closed panel).
+
+Motions are planned *ignoring movable objects* and then swept against each object at each
+pose, as the occlusion predicates do (:mod:`stalm.predicates.sweeps`); this is PDDLStream's
+"plan the motion ignoring fluents, certify collisions with test streams". The base route to a
+standing pose is the roadmap route from the robot's initial pose with every door open (the
+predicate engine's convention); the real base path is planned when the action is executed.
+
+One call draws once (one IK problem with the operator's restarts), so a stream instance that
+fails can be called again later: PDDLStream streams are generators.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from stalm.domain.mdp import Domain
+from stalm.domain.samplers import CARRY_CONF
+from stalm.geometry.transforms import (
+    Pose3,
+    compose,
+    invert,
+    se2_to_world,
+    wrap_angle,
+    yaw_quat,
+)
+from stalm.motion.arm_motion import interpolate_waypoints
+from stalm.motion.base_motion import BasePath
+from stalm.motion.grasps import (
+    APPROACH_DISTANCE,
+    LIFT_DISTANCE,
+    PLACE_CLEARANCE,
+    draw_placement,
+    grasp_points,
+    gripper_target,
+    placement_bounds,
+    sample_grasp_angles,
+)
+from stalm.motion.ik import solve_ik
+from stalm.motion.reach import leave_waypoints, reach_waypoints, solution_conf
+from stalm.planners.pddlstream.values import GraspValue, MotionValue, PoseValue
+from stalm.predicates.engine import PARKED
+from stalm.predicates.sweeps import (
+    ArmSegment,
+    ObjectAt,
+    Segment,
+    SweptMotion,
+    base_segment,
+    sweep,
+    sweep_near,
+)
+from stalm.world import robot as robot_model
+from stalm.world.relations import direction_between, supporting_region
+from stalm.world.state import Grasp, ObjectPose, RobotConf
+
+SE2 = tuple[float, float, float]
+CANONICAL_DISTANCE = 0.7
+"""How far ahead of its standing pose an object is imagined when a grasp is sampled (m)."""
+
+
+@dataclass(frozen=True)
+class Route:
+    """The base route from the robot's initial pose to one standing pose."""
+
+    swept: SweptMotion
+    crosses: frozenset[str]
+
+
+def _pose3(pose: ObjectPose) -> Pose3:
+    return ((pose.x, pose.y, pose.z), yaw_quat(pose.yaw))
+
+
+def _dense(waypoints: list[tuple[float, ...]]) -> tuple[tuple[float, ...], ...]:
+    return tuple(interpolate_waypoints(waypoints))
+
+
+class StreamGeometry:
+    """The streams' samplers and tests on one domain's simulator (which they reconfigure)."""
+
+    def __init__(self, domain: Domain) -> None:
+        self.domain = domain
+        self.problem = domain.problem
+        self.spec = domain.problem.spec
+        self.sim = domain.sim
+        self.settings = domain.sampler_settings
+        self.start = self.spec.robot.base
+        self._routes: dict[SE2, Route] = {}
+        self._route_hits: dict[tuple[SE2, str, ObjectPose], bool] = {}
+        self._static = frozenset(self.sim.bodies.walls.values()) | frozenset(
+            self.sim.bodies.regions.values()
+        )
+        self._door_of_body = {body: name for name, body in self.sim.bodies.doors.items()}
+        self._extent = {
+            o.name: math.hypot(o.half_extents[0], o.half_extents[1]) for o in self.spec.objects
+        }
+        initial = self.problem.initial_state
+        self._yaw_offset: dict[str, float] = {}
+        for obj in self.spec.objects:
+            pose = initial.pose(obj.name) if initial.has_pose(obj.name) else None
+            region = supporting_region(self.spec, pose) if pose is not None else None
+            stand_yaw = self.spec.region(region).base_pose[2] if region is not None else 0.0
+            yaw = pose.yaw if pose is not None else stand_yaw + initial.held_yaw_offset
+            self._yaw_offset[obj.name] = wrap_angle(yaw - stand_yaw)
+        self.collision_tests = 0
+
+    # ------------------------------------------------------------------ world
+    def _clear(self, stand: SE2) -> None:
+        """Every movable parked out of the way, doors closed, the robot folded at ``stand``."""
+        self.sim.attach(None)
+        for name in self.sim.bodies.objects:
+            self.sim.place_object(name, PARKED)
+        for door in self.spec.doors:
+            self.sim.set_door(door.name, False)
+        self.sim.set_robot(RobotConf.make(stand, CARRY_CONF[0], CARRY_CONF[1:]))
+
+    def _motion_from(
+        self, segments: tuple[Segment, ...], own: str = ""
+    ) -> tuple[SweptMotion, frozenset[str]] | None:
+        """Sweep ``segments`` in the cleared world: None if they touch the static scene, else
+        the swept motion and the doors it passes (``own``, the door being opened, excepted)."""
+        bodies, fan = sweep(self.sim, segments)
+        if bodies & self._static:
+            return None
+        doors = frozenset(self._door_of_body[b] for b in bodies if b in self._door_of_body)
+        held = next((s.held for s in segments if isinstance(s, ArmSegment) and s.held), None)
+        reach = self._extent[held.obj] + math.dist((0, 0, 0), held.position) if held else 0.0
+        return SweptMotion(segments, frozenset(), fan, reach), doors - {own}
+
+    def yaw_offset(self, obj: str) -> float:
+        """The object's yaw relative to the standing pose it is seen from (PLACE keeps it)."""
+        return self._yaw_offset[obj]
+
+    def fits(self, obj: str, region: str) -> bool:
+        spec = self.spec.object(obj)
+        reg = self.spec.region(region)
+        return (
+            placement_bounds(spec, reg, wrap_angle(reg.base_pose[2] + self._yaw_offset[obj]))
+            is not None
+        )
+
+    # ------------------------------------------------------------------ samplers
+    def sample_grasp(self, obj: str, rng: np.random.Generator) -> GraspValue:
+        """Pitch and yaw uniform in PICK's ranges, at the grasp point nearest the robot.
+
+        The object's pose in the gripper frame is computed in a canonical scene (standing
+        pose at the origin facing +x, the object 0.7 m ahead with its kept relative yaw):
+        every pose of the object relative to its standing pose shares that yaw, so the
+        same transform holds at every pose."""
+        pitch, yaw = sample_grasp_angles(rng, self.settings.pitch_range, self.settings.yaw_range)
+        frame = (CANONICAL_DISTANCE, 0.0, self._yaw_offset[obj])
+        point = min(
+            grasp_points(self.spec.object(obj)),
+            key=lambda q: math.hypot(*se2_to_world(frame, q[0], q[1])),
+        )
+        wx, wy = se2_to_world(frame, point[0], point[1])
+        target = gripper_target((wx, wy, point[2]), 0.0, pitch, yaw)
+        relative = compose(invert(target), ((frame[0], 0.0, 0.0), yaw_quat(frame[2])))
+        return GraspValue(obj, pitch, yaw, point, Grasp.make(obj, relative[0], relative[1]))
+
+    def sample_pose(self, obj: str, region: str, rng: np.random.Generator) -> PoseValue | None:
+        """One uniform placement on ``region``; None if the object does not fit there."""
+        reg = self.spec.region(region)
+        yaw = wrap_angle(reg.base_pose[2] + self._yaw_offset[obj])
+        pose = draw_placement(self.spec.object(obj), reg, yaw, rng)
+        return None if pose is None else PoseValue(obj, pose, region)
+
+    def sample_rel_pose(
+        self, obj: str, direction: str, ref: PoseValue, rng: np.random.Generator
+    ) -> PoseValue | None:
+        """Placements on the reference's region, rejected until one lies in ``direction``."""
+        reg = self.spec.region(ref.region)
+        yaw = wrap_angle(reg.base_pose[2] + self._yaw_offset[obj])
+        spec = self.spec.object(obj)
+        for _ in range(self.settings.placement_draws):
+            pose = draw_placement(spec, reg, yaw, rng)
+            if pose is None:
+                return None
+            if direction_between(reg, pose, ref.pose) == direction:
+                return PoseValue(obj, pose, ref.region)
+        return None
+
+    # ------------------------------------------------------------------ motions
+    def plan_pick(
+        self, pose: PoseValue, grasp: GraspValue, names: tuple[str, str], rng: np.random.Generator
+    ) -> MotionValue | None:
+        """PICK's arm motion for ``grasp`` at ``pose`` (approach, then lift with the object)."""
+        obj = pose.obj
+        stand = self.spec.region(pose.region).base_pose
+        self._clear(stand)
+        self.sim.place_object(obj, pose.pose)
+        wx, wy = se2_to_world(
+            (pose.pose.x, pose.pose.y, pose.pose.yaw), grasp.point[0], grasp.point[1]
+        )
+        target = gripper_target(
+            (wx, wy, pose.pose.z + grasp.point[2]), stand[2], grasp.pitch, grasp.yaw
+        )
+        solution = solve_ik(self.sim, stand, target, rng, self.settings.ik_attempts)
+        if solution is None:
+            return None
+        approach = reach_waypoints(self.sim, stand, target, solution, backoff=APPROACH_DISTANCE)
+        lift = leave_waypoints(self.sim, stand, target, solution, raise_by=LIFT_DISTANCE)
+        segments: tuple[Segment, ...] = (
+            ArmSegment(stand, _dense(approach), None, obj),
+            ArmSegment(stand, _dense(lift), grasp.grasp, None),
+        )
+        self.sim.place_object(obj, pose.pose)
+        swept = self._motion_from(segments)
+        if swept is None:
+            return None
+        return MotionValue(
+            "pick",
+            obj,
+            stand,
+            swept[0],
+            (*approach, *lift[1:]),
+            solution_conf(solution),
+            swept[1] | self.route(stand).crosses,
+            pose=names[0],
+            grasp=names[1],
+        )
+
+    def plan_place(
+        self, pose: PoseValue, grasp: GraspValue, names: tuple[str, str], rng: np.random.Generator
+    ) -> MotionValue | None:
+        """PLACE's arm motion putting the object held by ``grasp`` down at ``pose``."""
+        obj = pose.obj
+        stand = self.spec.region(pose.region).base_pose
+        self._clear(stand)
+        hand = compose(_pose3(pose.pose), invert(grasp.grasp.pose))
+        solution = solve_ik(self.sim, stand, hand, rng, self.settings.ik_attempts)
+        if solution is None:
+            return None
+        self.sim.attach(grasp.grasp)
+        lower = reach_waypoints(self.sim, stand, hand, solution, raise_by=PLACE_CLEARANCE)
+        self.sim.attach(None)
+        retreat = leave_waypoints(self.sim, stand, hand, solution, backoff=APPROACH_DISTANCE)
+        segments: tuple[Segment, ...] = (
+            ArmSegment(stand, _dense(lower), grasp.grasp, None),
+            ObjectAt(obj, pose.pose),
+            ArmSegment(stand, _dense(retreat), None, obj),
+        )
+        swept = self._motion_from(segments)
+        if swept is None:
+            return None
+        return MotionValue(
+            "place",
+            obj,
+            stand,
+            swept[0],
+            (*lower, *retreat[1:]),
+            solution_conf(solution),
+            swept[1] | self.route(stand).crosses,
+            pose=names[0],
+            grasp=names[1],
+        )
+
+    def plan_open(self, door: str, rng: np.random.Generator) -> MotionValue | None:
+        """OPEN's handle motion from the first standing pose (nearest the robot's start) at
+        which IK and the arm motion succeed."""
+        spec = self.spec.door(door)
+        stands = sorted(spec.base_poses, key=lambda s: math.dist(s[:2], self.start[:2]))
+        for stand in stands:
+            self._clear(stand)
+            solution = solve_ik(
+                self.sim,
+                stand,
+                self.domain.samplers.handle_target(door, stand),
+                rng,
+                self.settings.ik_attempts * 3,
+            )
+            if solution is None:
+                continue
+            handle = solution_conf(solution)
+            reach = [*robot_model.unfold(handle), handle, *robot_model.fold(handle)]
+            segments: tuple[Segment, ...] = (ArmSegment(stand, _dense(reach), None, None),)
+            swept = self._motion_from(segments, own=door)
+            if swept is None:
+                continue
+            return MotionValue(
+                "open",
+                door,
+                stand,
+                swept[0],
+                tuple(reach),
+                handle,
+                swept[1] | self.route(stand).crosses,
+            )
+        return None
+
+    # ------------------------------------------------------------------ tests
+    def route(self, stand: SE2) -> Route:
+        """The roadmap route from the initial pose to ``stand`` with every door open, and the
+        doors whose closed panels it passes (computed once per standing pose)."""
+        if stand not in self._routes:
+            every_door = frozenset(d.name for d in self.spec.doors)
+            planner = self.domain.base_planner
+            nodes = planner.route(self.start, stand, every_door)
+            corners: tuple[SE2, ...] = (self.start, stand)
+            if nodes is not None:
+                roadmap = planner.roadmap(every_door)
+                inner = tuple(
+                    (float(roadmap.nodes[n][0]), float(roadmap.nodes[n][1]), self.start[2])
+                    for n in nodes[1:-1]
+                )
+                corners = (self.start, *inner, stand)
+            segment = base_segment(BasePath(corners), planner.resolution)
+            self._clear(self.start)
+            bodies, _ = sweep(self.sim, (segment,))
+            doors = frozenset(self._door_of_body[b] for b in bodies if b in self._door_of_body)
+            self._routes[stand] = Route(SweptMotion((segment,), frozenset()), doors)
+        return self._routes[stand]
+
+    def collides(self, motion: MotionValue, pose: PoseValue) -> bool:
+        """Does ``motion`` (its base route, its arm sweep, or the door it opens) touch
+        ``pose.obj`` standing at ``pose``? Other movables are parked meanwhile."""
+        body = self.sim.bodies.objects[pose.obj]
+        x, y, radius = pose.pose.x, pose.pose.y, self._extent[pose.obj]
+        key = (motion.stand, pose.obj, pose.pose)
+        if key not in self._route_hits:
+            route = self.route(motion.stand).swept
+            hit = False
+            if route.near(x, y, radius):
+                self._clear(self.start)
+                self.sim.place_object(pose.obj, pose.pose)
+                self.collision_tests += 1
+                hit = sweep_near(self.sim, route, body, x, y, radius)
+            self._route_hits[key] = hit
+        if self._route_hits[key]:
+            return True
+        if motion.swept.near(x, y, radius):
+            self._clear(motion.stand)
+            self.sim.place_object(pose.obj, pose.pose)
+            self.collision_tests += 1
+            if sweep_near(self.sim, motion.swept, body, x, y, radius):
+                return True
+        if motion.kind == "open":
+            door = self.sim.bodies.doors[motion.subject]
+            self._clear(motion.stand)
+            self.sim.place_object(pose.obj, pose.pose)
+            self.sim.set_door(motion.subject, True)
+            self.collision_tests += 1
+            hit = self.sim.touches([door], body)
+            self.sim.set_door(motion.subject, False)
+            return hit
+        return False
