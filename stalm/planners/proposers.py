@@ -19,11 +19,14 @@ from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMBackend, LLMRequest
 from stalm.llm.constraints import build_constraint, json_reply_to_plan_text
 from stalm.llm.problem_prompt import problem_prompt
-from stalm.llm.prompt import PromptOptions
+from stalm.llm.prompt import Prompt, PromptOptions
 from stalm.llm.reply_parser import parse_reply
 from stalm.predicates.literals import GroundLiteral
 from stalm.world.problem import Problem
 from stalm.world.state import State
+
+MAX_REPLY_TOKENS = 500
+"""The token budget of one reply (the authors' max_tokens)."""
 
 
 @dataclass(frozen=True)
@@ -66,7 +69,7 @@ class LLMProposer:
     backend: LLMBackend
     options: PromptOptions = field(default_factory=PromptOptions)
     temperature: float = 1.0
-    max_tokens: int = 500
+    max_tokens: int = MAX_REPLY_TOKENS
     constrained: bool = False
 
     @property
@@ -82,47 +85,79 @@ class LLMProposer:
         seed: int,
         deadline: float | None = None,
     ) -> Proposal:
-        vocabulary = Vocabulary.from_problem(problem)
-        prompt = problem_prompt(problem, literals, self.options)
-        constraint = build_constraint(vocabulary) if self.constrained else None
-        request = LLMRequest(
-            system=prompt.system,
-            user=prompt.user,
-            n=n,
+        return ask_for_task_plans(
+            self.backend,
+            Vocabulary.from_problem(problem),
+            problem_prompt(problem, literals, self.options),
+            n,
+            seed,
+            constrained=self.constrained,
             temperature=self.temperature,
             max_tokens=self.max_tokens,
-            seed=seed,
-            constraint=constraint,
             deadline=deadline,
         )
-        start = time.perf_counter()
-        response = self.backend.complete(request)
-        seconds = time.perf_counter() - start
-        plans: list[tuple[DiscreteAction, ...]] = []
-        unparseable: list[str] = []
-        for reply in response.replies:
-            if reply.finish_reason == "deadline":
-                continue  # cut off by the time budget: not the model's answer
-            text = reply.text
-            if self.constrained and text.lstrip().startswith("{"):
-                # structured-output servers answer the JSON-schema form; read it as the template
-                try:
-                    text = json_reply_to_plan_text(text)
-                except StalmError as error:
-                    unparseable.append(str(error))
-                    continue
-            parsed = parse_reply(text, vocabulary)
-            if parsed.plan:
-                plans.append(tuple(parsed.plan))
-            else:
-                unparseable.append(parsed.reason or "no plan in the reply")
-        return Proposal(
-            plans=tuple(plans),
-            unparseable=tuple(unparseable),
-            replies=response.texts,
-            calls=1,
-            prompt_tokens=response.prompt_tokens,
-            completion_tokens=response.completion_tokens,
-            seconds=seconds,
-            from_cache=response.from_cache,
-        )
+
+
+def ask_for_task_plans(
+    backend: LLMBackend,
+    vocabulary: Vocabulary,
+    prompt: Prompt,
+    n: int,
+    seed: int,
+    *,
+    constrained: bool,
+    temperature: float = 1.0,
+    max_tokens: int = MAX_REPLY_TOKENS,
+    deadline: float | None = None,
+) -> Proposal:
+    """Send ``prompt`` once for ``n`` replies and parse each into a task plan.
+
+    STaLM and the baselines that write their own prompt (SayCan's instruction and history,
+    Iterative-Replanning's feedback) all read replies here: the same template, parser and
+    output constraint, so no method is better or worse merely for parsing differently. Every
+    reply is kept: a readable one as a plan (its valid prefix), an unreadable one as its reason
+    in ``unparseable``. Replies cut off by ``deadline`` are dropped: they are not the model's
+    answer.
+    """
+    constraint = build_constraint(vocabulary) if constrained else None
+    request = LLMRequest(
+        system=prompt.system,
+        user=prompt.user,
+        n=n,
+        temperature=temperature,
+        max_tokens=max_tokens,
+        seed=seed,
+        constraint=constraint,
+        deadline=deadline,
+    )
+    start = time.perf_counter()
+    response = backend.complete(request)
+    seconds = time.perf_counter() - start
+    plans: list[tuple[DiscreteAction, ...]] = []
+    unparseable: list[str] = []
+    for reply in response.replies:
+        if reply.finish_reason == "deadline":
+            continue
+        text = reply.text
+        if constrained and text.lstrip().startswith("{"):
+            # structured-output servers answer the JSON-schema form; read it as the template
+            try:
+                text = json_reply_to_plan_text(text)
+            except StalmError as error:
+                unparseable.append(str(error))
+                continue
+        parsed = parse_reply(text, vocabulary)
+        if parsed.plan:
+            plans.append(tuple(parsed.plan))
+        else:
+            unparseable.append(parsed.reason or "no plan in the reply")
+    return Proposal(
+        plans=tuple(plans),
+        unparseable=tuple(unparseable),
+        replies=response.texts,
+        calls=1,
+        prompt_tokens=response.prompt_tokens,
+        completion_tokens=response.completion_tokens,
+        seconds=seconds,
+        from_cache=response.from_cache,
+    )

@@ -12,7 +12,6 @@ replayed in a fresh scene at the end; a plan that fails there is a failure, neve
 from __future__ import annotations
 
 import time
-from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
@@ -20,10 +19,10 @@ import numpy as np
 
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
-from stalm.planners.base import Counters, PhaseTimes, PlanResult
+from stalm.planners.base import PlanResult
+from stalm.planners.episode import Episode
 from stalm.planners.hcount import hcount_value
 from stalm.planners.proposers import TaskPlanProposer
-from stalm.planners.replay import replay_plan
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.search import (
     SearchPolicies,
@@ -52,15 +51,6 @@ class StalmSettings:
 
 
 @dataclass
-class _Clock:
-    predicates: float = 0.0
-    llm: float = 0.0
-    concretize: float = 0.0
-    tree: float = 0.0
-    execution: float = 0.0
-
-
-@dataclass
 class StalmPlanner:
     """STaLM with any task-plan proposer (a language model by default)."""
 
@@ -86,96 +76,75 @@ class StalmPlanner:
             self.progress(message)
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
-        start_time = time.monotonic()
-        budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
-        deadline = start_time + budget
+        episode = Episode.begin(problem, time_budget_s)
         domain = Domain.create(problem)
         try:
-            return self._run(domain, problem, seed, start_time, deadline)
+            return self._run(domain, episode, seed)
         finally:
             domain.close()
 
-    def _run(
-        self, domain: Domain, problem: Problem, seed: int, start_time: float, deadline: float
-    ) -> PlanResult:
+    def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
+        problem = episode.problem
         engine = PredicateEngine(problem, domain.sim, domain.base_planner)
         rng = np.random.default_rng(seed)
         policies = self._policies(problem, engine)
         horizon = problem.horizon
         search = self.settings.search
-        clock = _Clock()
-        state = problem.initial_state
-        executed: list[Action] = []
-        states: list[State] = [state]
+        clock = episode.clock
         predicates: PredicateCache | None = None
-        failures: Counter[str] = Counter()
-        llm_calls = prompt_tokens = completion_tokens = simulations = replans = 0
-        termination = "timeout"
+        simulations = replans = 0
         step = 0
-        while True:
-            if domain.is_goal(state):
-                termination = "goal"
-                break
-            if len(executed) >= horizon:
-                termination = "horizon"
-                break
-            if time.monotonic() >= deadline:
-                termination = "timeout"
-                break
+        while (termination := episode.stop_reason(domain)) is None:
+            state = episode.state
+            done = len(episode.executed)
             replans += 1
             task_plans: list[TaskPlan] = []
             if self.proposer is not None:
                 tick = time.monotonic()
-                self._say(f"step {len(executed)}: predicates")
+                self._say(f"step {done}: predicates")
                 if predicates is None:
                     predicates = engine.compute(state)
                 else:
-                    predicates = engine.update(predicates, executed[-1].discrete, state)
+                    predicates = engine.update(predicates, episode.executed[-1].discrete, state)
                 clock.predicates += time.monotonic() - tick
 
-                tick = time.monotonic()
-                self._say(f"step {len(executed)}: asking {self.proposer.name} for task plans")
+                self._say(f"step {done}: asking {self.proposer.name} for task plans")
                 proposal = self.proposer.propose(
                     problem,
                     state,
                     predicates.literals,
                     self.settings.n_batch,
                     seed * 1000 + step,
-                    deadline=deadline,
+                    deadline=episode.deadline,
                 )
                 step += 1
-                clock.llm += time.monotonic() - tick
-                if time.monotonic() >= deadline:
+                episode.record_query(proposal)
+                if episode.out_of_time():
                     termination = "timeout"
                     break
-                llm_calls += proposal.calls
-                prompt_tokens += proposal.prompt_tokens
-                completion_tokens += proposal.completion_tokens
                 task_plans = [TaskPlan(plan) for plan in proposal.plans]
                 task_plans += [TaskPlan.unreadable(reason) for reason in proposal.unparseable]
 
             tick = time.monotonic()
-            self._say(f"step {len(executed)}: concretizing {len(task_plans)} task plans")
-            concrete = concretize(
-                domain, state, task_plans, rng, depth0=len(executed), horizon=horizon
-            )
+            self._say(f"step {done}: concretizing {len(task_plans)} task plans")
+            concrete = concretize(domain, state, task_plans, rng, depth0=done, horizon=horizon)
             clock.concretize += time.monotonic() - tick
-            failures.update(kind for _, kind in concrete.failures)
+            episode.failures.update(kind for _, kind in concrete.failures)
 
             to_execute: tuple[Action, ...] = ()
             if concrete.success and concrete.solution is not None:
                 to_execute = concrete.solution
             elif self.settings.use_tree:
                 tick = time.monotonic()
-                self._say(f"step {len(executed)}: warm-started UCT, {search.budget} simulations")
+                self._say(f"step {done}: warm-started UCT, {search.budget} simulations")
                 result = warm_started_uct(
                     domain,
                     state,
                     concrete.plans,
                     rng,
                     settings=search,
-                    depth0=len(executed),
-                    deadline=deadline,
+                    depth0=done,
+                    deadline=episode.deadline,
                     policies=policies,
                 )
                 clock.tree += time.monotonic() - tick
@@ -186,55 +155,20 @@ class StalmPlanner:
                     to_execute = (result.best_action,)
             else:
                 to_execute = _first_action_of_best_prefix(concrete.plans)
-            if not to_execute:
-                continue  # nothing feasible found: ask again from the same state
-
-            tick = time.monotonic()
+            # nothing feasible found: ask again from the same state
             for action in to_execute:
-                outcome = domain.step(state, action)
-                state = outcome.state
-                executed.append(action)
-                states.append(state)
+                episode.execute(domain, action)
                 self._say(f"executed {action.discrete}")
-            clock.execution += time.monotonic() - tick
 
-        verified = True
-        replay_reason = None
-        if termination == "goal":
-            tick = time.monotonic()
-            report = replay_plan(problem, problem.initial_state, executed)
-            clock.execution += time.monotonic() - tick
-            verified = report.reached_goal
-            replay_reason = report.reason
-            if not verified:
-                termination = "replay_failed"
-        total = time.monotonic() - start_time
-        return PlanResult(
-            problem=problem.name,
-            planner=self.name,
-            seed=seed,
-            success=termination == "goal" and verified,
-            plan=tuple(executed),
-            states=tuple(states),
-            times=PhaseTimes(
-                clock.predicates, clock.llm, clock.concretize, clock.tree, clock.execution, total
-            ),
-            counters=Counters(
-                llm_calls=llm_calls,
-                prompt_tokens=prompt_tokens,
-                completion_tokens=completion_tokens,
-                transitions=domain.counters.transitions,
-                samples=domain.counters.samples,
-                collision_checks=domain.sim.collision_checks,
-                simulations=simulations,
-                replans=replans,
-            ),
-            termination=termination,
-            llm_plan_failures=dict(failures),
-            details={
-                "proposer": self.proposer.name if self.proposer is not None else None,
-                "replay_failure": replay_reason,
-            },
+        proposer = self.proposer.name if self.proposer is not None else None
+        return episode.finish(
+            domain,
+            self.name,
+            seed,
+            termination,
+            simulations=simulations,
+            replans=replans,
+            details={"proposer": proposer},
         )
 
 

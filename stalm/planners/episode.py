@@ -1,0 +1,138 @@
+"""The bookkeeping of one online trial, shared by the baselines that run their own loop.
+
+Every online planner does the same things around its decisions: one wall-clock deadline for the
+whole trial, the executed actions and the states they lead to, wall time per phase, what the
+language model cost, the failure kinds of the task plans it offered, and at the end a replay of
+the executed plan in a fresh scene (a plan that fails there is a failure, never a success) turned
+into a :class:`PlanResult`. :class:`Episode` holds exactly that, so a baseline's module is only
+its decision rule.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Any
+
+from stalm.domain.mdp import Domain
+from stalm.domain.params import Action
+from stalm.planners.base import Counters, PhaseTimes, PlanResult
+from stalm.planners.proposers import Proposal
+from stalm.planners.replay import replay_plan
+from stalm.world.problem import Problem
+from stalm.world.state import State
+
+
+@dataclass
+class PhaseClock:
+    """Seconds spent per phase so far (mutable: the loop adds to it)."""
+
+    predicates: float = 0.0
+    llm: float = 0.0
+    concretize: float = 0.0
+    tree: float = 0.0
+    execution: float = 0.0
+
+
+@dataclass
+class Episode:
+    """One trial in progress: where the robot is, what it did, and what that cost."""
+
+    problem: Problem
+    start_time: float
+    deadline: float
+    state: State
+    executed: list[Action] = field(default_factory=list)
+    states: list[State] = field(default_factory=list)
+    clock: PhaseClock = field(default_factory=PhaseClock)
+    failures: Counter[str] = field(default_factory=Counter)
+    llm_calls: int = 0
+    prompt_tokens: int = 0
+    completion_tokens: int = 0
+
+    @staticmethod
+    def begin(problem: Problem, time_budget_s: float | None) -> Episode:
+        """A trial starting now from the problem's initial state (budget None: the problem's)."""
+        start = time.monotonic()
+        budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
+        state = problem.initial_state
+        return Episode(problem, start, start + budget, state, states=[state])
+
+    def out_of_time(self) -> bool:
+        return time.monotonic() >= self.deadline
+
+    def stop_reason(self, domain: Domain) -> str | None:
+        """'goal', 'horizon' or 'timeout' when the trial must stop now, else None."""
+        if domain.is_goal(self.state):
+            return "goal"
+        if len(self.executed) >= self.problem.horizon:
+            return "horizon"
+        if self.out_of_time():
+            return "timeout"
+        return None
+
+    def record_query(self, proposal: Proposal) -> None:
+        """Add one language-model query's calls, tokens and seconds."""
+        self.llm_calls += proposal.calls
+        self.prompt_tokens += proposal.prompt_tokens
+        self.completion_tokens += proposal.completion_tokens
+        self.clock.llm += proposal.seconds
+
+    def execute(self, domain: Domain, action: Action) -> None:
+        """Apply a sampled action that ψ found feasible in the current state."""
+        tick = time.monotonic()
+        outcome = domain.step(self.state, action)
+        self.state = outcome.state
+        self.executed.append(action)
+        self.states.append(self.state)
+        self.clock.execution += time.monotonic() - tick
+
+    def finish(
+        self,
+        domain: Domain,
+        planner: str,
+        seed: int,
+        termination: str,
+        *,
+        simulations: int = 0,
+        replans: int = 0,
+        details: dict[str, Any] | None = None,
+    ) -> PlanResult:
+        """The trial's result; a 'goal' run is replayed in a fresh scene before it counts."""
+        verified = True
+        replay_reason = None
+        if termination == "goal":
+            tick = time.monotonic()
+            report = replay_plan(self.problem, self.problem.initial_state, self.executed)
+            self.clock.execution += time.monotonic() - tick
+            verified = report.reached_goal
+            replay_reason = report.reason
+            if not verified:
+                termination = "replay_failed"
+        clock = self.clock
+        total = time.monotonic() - self.start_time
+        return PlanResult(
+            problem=self.problem.name,
+            planner=planner,
+            seed=seed,
+            success=termination == "goal" and verified,
+            plan=tuple(self.executed),
+            states=tuple(self.states),
+            times=PhaseTimes(
+                clock.predicates, clock.llm, clock.concretize, clock.tree, clock.execution, total
+            ),
+            counters=Counters(
+                llm_calls=self.llm_calls,
+                prompt_tokens=self.prompt_tokens,
+                completion_tokens=self.completion_tokens,
+                transitions=domain.counters.transitions,
+                samples=domain.counters.samples,
+                collision_checks=domain.sim.collision_checks,
+                simulations=simulations,
+                replans=replans,
+            ),
+            termination=termination,
+            llm_plan_failures=dict(self.failures),
+            details={**(details or {}), "replay_failure": replay_reason},
+        )

@@ -1,0 +1,272 @@
+"""LLM-MCTS (Zhao et al., 2024), the baseline of §4.2–4.3: MCTS whose prior asks a model.
+
+At every discrete node the search selects from, PUCT (:mod:`stalm.search.puct`, c = 50) weighs
+each legal action by a prior: the state's predicates are computed from scratch, the paper's
+prompt for them is sent once for 5 replies, the first action of each parsed plan that is a legal
+action counts as a vote, and votes/5 is mixed 0.5 with uniform (the authors' construction). So
+the model is called once per *new* state the search selects from — the defining cost of the
+method, which the paper blames for its time-outs; every call, its tokens and its seconds go into
+the result. Everything else is STaLM's hybrid search without warm start: UCT over κ with
+progressive widening, random rollouts at new leaves, N_budget = 35 simulations per real step,
+executed online like :class:`~stalm.planners.stalm.StalmPlanner` (bookkeeping shared through
+:class:`~stalm.planners.episode.Episode`).
+
+Determinism: each state's request is seeded from the trial seed and a stable digest of the state
+(never Python's salted ``hash``), so the same seed replays the same cached replies and, with
+them, the same search.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+from stalm.domain.actions import DiscreteAction
+from stalm.domain.mdp import Domain
+from stalm.planners.base import PlanResult
+from stalm.planners.episode import Episode
+from stalm.planners.proposers import LLMProposer, TaskPlanProposer
+from stalm.planners.registry import PlannerConfig, llm_backend, use_constraint
+from stalm.predicates.engine import PredicateEngine
+from stalm.predicates.literals import GroundLiteral
+from stalm.search import SearchPolicies, SearchSettings, warm_started_uct
+from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
+from stalm.world.problem import Problem
+from stalm.world.state import State
+
+Progress = Callable[[str], None]
+LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
+
+LLM_MCTS_BUDGET = 35
+"""N_budget of LLM-MCTS in the paper's §4.2."""
+
+
+def state_request_seed(trial_seed: int, state: State) -> int:
+    """The backend seed for the prior at ``state`` in trial ``trial_seed``.
+
+    A SHA-256 of the state's JSON form (coordinates are quantised, keys sorted) is stable across
+    processes and machines, unlike ``hash()``; the value stays below 2**31 so every backend and
+    the reply cache's integer column accept it (and ``seed + 4`` for the fifth sample).
+    """
+    text = json.dumps(["llm-mcts-prior", trial_seed, state.to_json()], sort_keys=True)
+    digest = hashlib.sha256(text.encode()).digest()
+    return int.from_bytes(digest[:4], "little") >> 1
+
+
+@dataclass(frozen=True)
+class PriorStats:
+    """What the LLM prior of one trial cost and how usable its replies were."""
+
+    states: int = 0
+    """Distinct states given a model prior (one query each)."""
+    llm_calls: int = 0
+    cached_calls: int = 0
+    """Queries answered entirely from the reply cache (no model run)."""
+    prompt_tokens: int = 0
+    completion_tokens: int = 0
+    llm_seconds: float = 0.0
+    predicate_seconds: float = 0.0
+    votes: int = 0
+    """Replies whose first action was a legal action at their state."""
+    unusable_replies: int = 0
+    """Replies without a plan or whose first action was not legal there."""
+    deadline_fallbacks: int = 0
+    """Priors answered uniform because the trial's deadline had passed."""
+
+
+class LLMPrior:
+    """A :class:`~stalm.search.puct.PriorSource` that asks a task-plan proposer once per state.
+
+    The first time a state needs a prior: its literals are computed (``literals_of``), the
+    proposer is asked for ``samples`` task plans with a seed from :func:`state_request_seed`,
+    and the plans' first actions become :func:`~stalm.search.puct.vote_prior`'s votes. The
+    votes are memoised per state for the rest of the trial (tree states recur within and
+    across real steps), so a state costs one query at most.
+
+    The deadline is checked before each new query: once it has passed, the prior is uniform
+    (and not memoised) so the running simulation finishes quickly and the search returns; a
+    query already under way is never cut off, so a trial can overrun its budget by at most one
+    query.
+    """
+
+    def __init__(
+        self,
+        problem: Problem,
+        proposer: TaskPlanProposer,
+        literals_of: LiteralsOf,
+        *,
+        trial_seed: int,
+        samples: int = 5,
+        uniform_weight: float = 0.5,
+        deadline: float | None = None,
+        progress: Progress | None = None,
+    ) -> None:
+        self.problem = problem
+        self.proposer = proposer
+        self.literals_of = literals_of
+        self.trial_seed = trial_seed
+        self.samples = samples
+        self.uniform_weight = uniform_weight
+        self.deadline = deadline
+        self.progress = progress
+        self._votes: dict[State, tuple[DiscreteAction, ...]] = {}
+        self._stats = PriorStats()
+
+    @property
+    def stats(self) -> PriorStats:
+        return self._stats
+
+    def __call__(self, state: State, actions: tuple[DiscreteAction, ...]) -> np.ndarray:
+        votes = self._votes.get(state)
+        if votes is None:
+            if self.deadline is not None and time.monotonic() >= self.deadline:
+                self._stats = replace(
+                    self._stats, deadline_fallbacks=self._stats.deadline_fallbacks + 1
+                )
+                return uniform_prior(actions)
+            votes = self._ask(state, actions)
+            self._votes[state] = votes
+        return vote_prior(votes, actions, self.samples, self.uniform_weight)
+
+    def _ask(self, state: State, actions: tuple[DiscreteAction, ...]) -> tuple[DiscreteAction, ...]:
+        """Query the proposer for ``state``; the legal first actions of its plans."""
+        if self.progress is not None:
+            self.progress(f"llm-mcts: prior for new state #{self._stats.states + 1}")
+        tick = time.monotonic()
+        literals = tuple(self.literals_of(state))
+        predicate_seconds = time.monotonic() - tick
+        tick = time.monotonic()
+        seed = state_request_seed(self.trial_seed, state)
+        proposal = self.proposer.propose(
+            self.problem, state, literals, self.samples, seed, deadline=self.deadline
+        )
+        llm_seconds = time.monotonic() - tick
+        legal = set(actions)
+        votes = tuple(plan[0] for plan in proposal.plans if plan and plan[0] in legal)
+        replies = len(proposal.plans) + len(proposal.unparseable)
+        stats = self._stats
+        self._stats = replace(
+            stats,
+            states=stats.states + 1,
+            llm_calls=stats.llm_calls + proposal.calls,
+            cached_calls=stats.cached_calls + int(proposal.from_cache),
+            prompt_tokens=stats.prompt_tokens + proposal.prompt_tokens,
+            completion_tokens=stats.completion_tokens + proposal.completion_tokens,
+            llm_seconds=stats.llm_seconds + llm_seconds,
+            predicate_seconds=stats.predicate_seconds + predicate_seconds,
+            votes=stats.votes + len(votes),
+            unusable_replies=stats.unusable_replies + replies - len(votes),
+        )
+        return votes
+
+
+@dataclass(frozen=True)
+class LlmMctsSettings:
+    """§4.2: N_budget = 35 simulations per real step, c = 50, 5 samples, 0.5 uniform mixing."""
+
+    search: SearchSettings = field(default_factory=lambda: SearchSettings(budget=LLM_MCTS_BUDGET))
+    samples: int = 5
+    uniform_weight: float = 0.5
+
+
+@dataclass
+class LlmMctsPlanner:
+    """LLM-MCTS run online: search from the current state, execute, repeat."""
+
+    proposer: TaskPlanProposer
+    settings: LlmMctsSettings = field(default_factory=LlmMctsSettings)
+    progress: Progress | None = None
+
+    @property
+    def name(self) -> str:
+        return "llm-mcts"
+
+    def _say(self, message: str) -> None:
+        if self.progress is not None:
+            self.progress(message)
+
+    def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
+        episode = Episode.begin(problem, time_budget_s)
+        domain = Domain.create(problem)
+        try:
+            return self._run(domain, episode, seed)
+        finally:
+            domain.close()
+
+    def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
+        problem = episode.problem
+        engine = PredicateEngine(problem, domain.sim, domain.base_planner)
+        rng = np.random.default_rng(seed)
+        search = self.settings.search
+        prior = LLMPrior(
+            problem,
+            self.proposer,
+            lambda state: engine.compute(state).literals,
+            trial_seed=seed,
+            samples=self.settings.samples,
+            uniform_weight=self.settings.uniform_weight,
+            deadline=episode.deadline,
+            progress=self.progress,
+        )
+        policies = replace(
+            SearchPolicies.from_settings(search), select_action=PUCTSelection(search.c, prior)
+        )
+        search_seconds = 0.0
+        simulations = replans = 0
+        while (termination := episode.stop_reason(domain)) is None:
+            replans += 1
+            self._say(f"step {len(episode.executed)}: MCTS with an LLM prior, {search.budget} sims")
+            tick = time.monotonic()
+            result = warm_started_uct(
+                domain,
+                episode.state,
+                (),
+                rng,
+                settings=search,
+                depth0=len(episode.executed),
+                deadline=episode.deadline,
+                policies=policies,
+            )
+            search_seconds += time.monotonic() - tick
+            simulations += result.counters.simulations
+            if result.goal_plan:
+                to_execute = result.goal_plan
+            elif result.best_action is not None:
+                to_execute = (result.best_action,)
+            else:
+                continue  # no feasible root action found: search again from the same state
+            for action in to_execute:
+                episode.execute(domain, action)
+                self._say(f"executed {action.discrete}")
+
+        stats = prior.stats
+        episode.llm_calls = stats.llm_calls
+        episode.prompt_tokens = stats.prompt_tokens
+        episode.completion_tokens = stats.completion_tokens
+        episode.clock.llm = stats.llm_seconds
+        episode.clock.predicates = stats.predicate_seconds
+        # the prior is asked from inside the search: its seconds are not tree-search seconds
+        episode.clock.tree = max(0.0, search_seconds - stats.llm_seconds - stats.predicate_seconds)
+        return episode.finish(
+            domain,
+            self.name,
+            seed,
+            termination,
+            simulations=simulations,
+            replans=replans,
+            details={"proposer": self.proposer.name, "prior": asdict(stats)},
+        )
+
+
+def build_llm_mcts(config: PlannerConfig, progress: Progress | None) -> LlmMctsPlanner:
+    """The registry's builder: the configured (cached) backend, the paper's prompt and budget."""
+    backend = llm_backend(config)
+    proposer = LLMProposer(backend, config.prompt, constrained=use_constraint(config, backend))
+    budget = config.sims if config.sims is not None else LLM_MCTS_BUDGET
+    settings = LlmMctsSettings(search=SearchSettings(budget=budget), samples=config.batch)
+    return LlmMctsPlanner(proposer, settings, progress=progress)

@@ -1,0 +1,312 @@
+"""EP-SayCan (§4.2): a fresh decision at every real step, LLM score times affordance, no search.
+
+SayCan multiplies a language model's likelihood of each skill by the skill's affordance and
+executes the argmax. GPT-4 gives no log-probabilities of prompt tokens, so the paper (after Zhao
+et al., 2024) uses the *empirical* policy: ask N_batch = 5 replies at temperature 1 and score an
+action by the fraction of replies whose plan starts with it. The prompt is SayCan's own (task,
+action vocabulary, history; :mod:`stalm.llm.saycan_prompt`), without STaLM's predicates; that is
+the point of the baseline. Affordance is 1 when the action's symbolic precondition holds and the
+state's geometric predicates do not mark it occluded (PickOccludedBy for PICK, PlaceOccludedBy
+for PLACE), else 0 -- the authors removed occluded actions before the argmax.
+
+One step: compute the predicates, query, score, take the argmax (ties broken by the trial's
+generator), draw κ with ψ up to 3 times and execute the first feasible draw. An action without a
+feasible κ is excluded at this state and the next best is taken. Choice documented here: when
+every product is 0 (the replies name no affordable action, or all were excluded) the planner
+asks again with the next derived seed; after ``max_queries_per_step`` such queries at one state
+the trial ends as 'no_progress', because a state the model keeps answering with unaffordable
+actions only burns the time budget.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from collections.abc import Callable, Collection, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from stalm.domain.actions import DiscreteAction, Pick, Place
+from stalm.domain.mdp import Domain
+from stalm.domain.outcome import Infeasibility
+from stalm.domain.params import Action
+from stalm.domain.vocabulary import Vocabulary
+from stalm.llm.backends.base import LLMBackend
+from stalm.llm.saycan_prompt import saycan_prompt
+from stalm.planners.base import PlanResult
+from stalm.planners.episode import Episode
+from stalm.planners.plan_queries import query_seed
+from stalm.planners.proposers import ask_for_task_plans
+from stalm.planners.registry import PlannerConfig, Progress, llm_backend, use_constraint
+from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.predicates.literals import GroundLiteral
+from stalm.world.problem import Problem
+from stalm.world.state import State
+
+Affordance = Callable[[DiscreteAction], bool]
+
+
+@dataclass(frozen=True)
+class SayCanScore:
+    """One candidate action's LLM score (share of replies starting with it), its 0/1
+    affordance and their product, the score SayCan maximises."""
+
+    action: DiscreteAction
+    llm: float
+    affordance: float
+
+    @property
+    def score(self) -> float:
+        return self.llm * self.affordance
+
+
+def saycan_scores(
+    first_actions: Iterable[DiscreteAction],
+    n_replies: int,
+    candidates: Sequence[DiscreteAction],
+    affordable: Affordance,
+) -> tuple[SayCanScore, ...]:
+    """SayCan's scores of ``candidates`` from the first actions of ``n_replies`` replies.
+
+    The LLM score is the empirical distribution: count / ``n_replies`` (replies without a
+    readable first action still count in the denominator, as a model that wrote nothing usable
+    gave no mass to any action). First actions outside ``candidates`` are dropped.
+    """
+    if n_replies < 1:
+        raise ValueError(f"n_replies must be at least 1, got {n_replies}")
+    counts = Counter(first_actions)
+    return tuple(
+        SayCanScore(action, counts[action] / n_replies, 1.0 if affordable(action) else 0.0)
+        for action in candidates
+    )
+
+
+def saycan_choice(
+    scores: Sequence[SayCanScore],
+    rng: np.random.Generator,
+    excluded: Collection[DiscreteAction] = (),
+) -> DiscreteAction | None:
+    """The argmax of LLM score × affordance over actions not ``excluded`` (None if all are 0).
+
+    Ties are broken uniformly with ``rng`` among the tied actions in ``scores`` order, so the
+    choice is a function of the seed.
+    """
+    live = [s for s in scores if s.score > 0.0 and s.action not in excluded]
+    if not live:
+        return None
+    best = max(s.score for s in live)
+    tied = [s.action for s in live if s.score == best]
+    return tied[int(rng.integers(len(tied)))] if len(tied) > 1 else tied[0]
+
+
+def occlusion_free(literals: Iterable[GroundLiteral]) -> Affordance:
+    """Whether an action is not occluded per the state's PickOccludedBy/PlaceOccludedBy."""
+    picks: set[str] = set()
+    places: set[tuple[str, ...]] = set()
+    for literal in literals:
+        if literal.name == "PickOccludedBy":
+            picks.add(literal.args[0])
+        elif literal.name == "PlaceOccludedBy":
+            places.add(literal.args[:3])
+
+    def free(action: DiscreteAction) -> bool:
+        if isinstance(action, Pick):
+            return action.obj not in picks
+        if isinstance(action, Place):
+            return (action.obj, action.direction, action.ref) not in places
+        return True
+
+    return free
+
+
+def affordance(domain: Domain, state: State, literals: Iterable[GroundLiteral]) -> Affordance:
+    """SayCan's 0/1 affordance in ``state``: the symbolic precondition holds and the action is
+    not occluded according to the state's geometric predicates ``literals``."""
+    unoccluded = occlusion_free(literals)
+
+    def affordable(action: DiscreteAction) -> bool:
+        return domain.precondition_failure(state, action) is None and unoccluded(action)
+
+    return affordable
+
+
+@dataclass
+class DecisionTally:
+    """What the decisions of one trial did, for the result's details."""
+
+    queries: int = 0
+    zero_score_queries: int = 0
+    kappa_failures: int = 0
+    decisions: list[dict[str, Any]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class SayCanSettings:
+    """The paper's EP-SayCan: 5 replies per decision, up to 3 κ draws per chosen action."""
+
+    n_batch: int = 5
+    kappa_tries: int = 3
+    max_queries_per_step: int = 3
+    """Queries at one state whose scores are all 0 before the trial ends as 'no_progress'."""
+    temperature: float = 1.0
+
+
+@dataclass
+class EpSayCanPlanner:
+    """SayCan with the empirical LLM policy and precondition-and-occlusion affordance."""
+
+    backend: LLMBackend
+    constrained: bool = False
+    settings: SayCanSettings = field(default_factory=SayCanSettings)
+    progress: Progress | None = None
+
+    @property
+    def name(self) -> str:
+        return "ep-saycan"
+
+    def _say(self, message: str) -> None:
+        if self.progress is not None:
+            self.progress(message)
+
+    def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
+        episode = Episode.begin(problem, time_budget_s)
+        domain = Domain.create(problem)
+        try:
+            return self._run(domain, episode, seed)
+        finally:
+            domain.close()
+
+    def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
+        problem = episode.problem
+        engine = PredicateEngine(problem, domain.sim, domain.base_planner)
+        rng = np.random.default_rng(seed)
+        predicates: PredicateCache | None = None
+        tally = DecisionTally()
+        step = 0
+        while True:
+            termination = episode.stop_reason(domain)
+            if termination is not None:
+                break
+            tick = time.monotonic()
+            self._say(f"step {step}: predicates")
+            if predicates is None:
+                predicates = engine.compute(episode.state)
+            else:
+                predicates = engine.update(predicates, episode.executed[-1].discrete, episode.state)
+            episode.clock.predicates += time.monotonic() - tick
+            chosen = self.decide(domain, episode, predicates.literals, seed, step, rng, tally)
+            if chosen is None:
+                termination = "timeout" if episode.out_of_time() else "no_progress"
+                break
+            episode.execute(domain, chosen)
+            self._say(f"executed {chosen.discrete}")
+            step += 1
+        return episode.finish(
+            domain,
+            self.name,
+            seed,
+            termination,
+            replans=tally.queries,
+            details={
+                "backend": f"{self.backend.name}:{self.backend.model}",
+                "queries": tally.queries,
+                "zero_score_queries": tally.zero_score_queries,
+                "kappa_failures": tally.kappa_failures,
+                "decisions": tally.decisions,
+            },
+        )
+
+    def decide(
+        self,
+        domain: Domain,
+        episode: Episode,
+        literals: Iterable[GroundLiteral],
+        seed: int,
+        step: int,
+        rng: np.random.Generator,
+        tally: DecisionTally,
+    ) -> Action | None:
+        """One SayCan decision in the current state: a feasible sampled action, or None."""
+        problem = episode.problem
+        state = episode.state
+        affordable = affordance(domain, state, literals)
+        candidates = domain.legal_actions(state)
+        history = [action.discrete for action in episode.executed]
+        excluded: set[DiscreteAction] = set()
+        for attempt in range(self.settings.max_queries_per_step):
+            if episode.out_of_time():
+                return None
+            self._say(f"step {step}: asking for {self.settings.n_batch} replies")
+            proposal = ask_for_task_plans(
+                self.backend,
+                Vocabulary.from_problem(problem),
+                saycan_prompt(problem, history),
+                self.settings.n_batch,
+                query_seed(seed, step, attempt),
+                constrained=self.constrained,
+                temperature=self.settings.temperature,
+                deadline=episode.deadline,
+            )
+            episode.record_query(proposal)
+            episode.failures.update("unparseable" for _ in proposal.unparseable)
+            tally.queries += 1
+            scores = saycan_scores(
+                (plan[0] for plan in proposal.plans),
+                len(proposal.replies) or self.settings.n_batch,
+                candidates,
+                affordable,
+            )
+            while not episode.out_of_time():
+                best = saycan_choice(scores, rng, excluded)
+                if best is None:
+                    break
+                chosen = self._draw_kappa(domain, state, best, rng)
+                if chosen is not None:
+                    tally.decisions.append(_decision(step, attempt, proposal.plans, scores, chosen))
+                    return chosen
+                tally.kappa_failures += 1
+                excluded.add(best)
+                self._say(f"step {step}: no feasible κ for {best}; excluded at this state")
+            tally.zero_score_queries += 1
+            tally.decisions.append(_decision(step, attempt, proposal.plans, scores, None))
+        return None
+
+    def _draw_kappa(
+        self, domain: Domain, state: State, action: DiscreteAction, rng: np.random.Generator
+    ) -> Action | None:
+        """The first of up to ``kappa_tries`` draws of ψ that is feasible, or None."""
+        for _ in range(self.settings.kappa_tries):
+            drawn = domain.sample(state, action, rng)
+            if not isinstance(drawn, Infeasibility):
+                return drawn
+        return None
+
+
+def _decision(
+    step: int,
+    attempt: int,
+    plans: Sequence[Sequence[DiscreteAction]],
+    scores: Sequence[SayCanScore],
+    chosen: Action | None,
+) -> dict[str, Any]:
+    """What one query saw and what it chose (None: every score was 0), as JSON-able data."""
+    return {
+        "step": step,
+        "query": attempt,
+        "first_actions": [list(plan[0].as_tuple()) for plan in plans],
+        "scored": [[list(s.action.as_tuple()), s.llm, s.affordance] for s in scores if s.llm > 0.0],
+        "chosen": list(chosen.discrete.as_tuple()) if chosen is not None else None,
+    }
+
+
+def build_ep_saycan(config: PlannerConfig, progress: Progress | None) -> EpSayCanPlanner:
+    """The registry's builder: the configured (cached) backend and N_batch."""
+    backend = llm_backend(config)
+    return EpSayCanPlanner(
+        backend,
+        constrained=use_constraint(config, backend),
+        settings=SayCanSettings(n_batch=config.batch),
+        progress=progress,
+    )

@@ -1,0 +1,225 @@
+"""LLM-MCTS: the LLM prior (votes, memoisation, seeds, deadline), PUCT with it inside the
+search, and the planner end to end on P2 with a scripted backend in place of the model."""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from stalm.domain.actions import Pick, Place
+from stalm.llm.backends.base import LLMRequest, LLMResponse
+from stalm.llm.cache import CachedBackend, ReplyCache
+from stalm.planners.llm_mcts import (
+    LlmMctsPlanner,
+    LlmMctsSettings,
+    LLMPrior,
+    build_llm_mcts,
+    state_request_seed,
+)
+from stalm.planners.proposers import LLMProposer
+from stalm.planners.registry import PlannerConfig, build_planner
+from stalm.planners.replay import replay_result_json
+from stalm.search import SearchPolicies, SearchSettings, SearchTree, warm_started_uct
+from stalm.search.puct import PUCTSelection
+from stalm.world.state import ObjectPose
+from tests.planners.mcts_doubles import (
+    PlanFollowingBackendDouble,
+    ScriptedRepliesBackendDouble,
+    SymbolicLiteralsDouble,
+    plan_text,
+)
+from tests.planners.test_stalm import P2_PLAN
+
+MIXED_REPLIES = (
+    plan_text([Pick("bottle2"), Place("bottle2", "on", "counter1")]),
+    plan_text([Pick("bottle2")]),
+    plan_text([Pick("salter")]),
+    "I am sorry, I cannot produce a plan.",
+    plan_text([Place("bottle3", "on", "counter1")]),  # hand empty: not legal
+)
+
+
+def _prior(problem, backend, literals=None, seed: int = 0, deadline=None) -> LLMPrior:
+    return LLMPrior(
+        problem,
+        LLMProposer(backend),
+        literals or SymbolicLiteralsDouble(),
+        trial_seed=seed,
+        deadline=deadline,
+    )
+
+
+def _moved(state, name: str, dx: float):
+    pose = state.pose(name)
+    return state.with_changes(poses={name: ObjectPose.make(pose.x + dx, pose.y, pose.z, pose.yaw)})
+
+
+def test_prior_counts_first_actions_over_five_replies_and_mixes_with_uniform(
+    problems, domain_factory
+) -> None:
+    problem = problems["P2"]
+    state = problem.initial_state
+    legal = domain_factory("P2").legal_actions(state)
+    backend = ScriptedRepliesBackendDouble(MIXED_REPLIES)
+    prior = _prior(problem, backend, seed=3)
+    probabilities = prior(state, legal)
+    by_action = dict(zip(legal, probabilities, strict=True))
+    # 5 legal actions (4 picks, the door). Votes/5: bottle2 0.4, salter 0.2; mixed 0.5 with
+    # uniform 0.2 each: 0.3, 0.2, the other three 0.1; sum 0.8, renormalised: / 0.8
+    assert len(legal) == 5
+    assert by_action[Pick("bottle2")] == pytest.approx(0.375)
+    assert by_action[Pick("salter")] == pytest.approx(0.25)
+    others = [p for a, p in by_action.items() if a not in (Pick("bottle2"), Pick("salter"))]
+    assert others == pytest.approx([0.125] * 3)
+    assert probabilities.sum() == pytest.approx(1.0)
+    request = backend.requests[0]
+    assert request.n == 5 and request.temperature == 1.0
+    assert request.seed == state_request_seed(3, state)
+    stats = prior.stats
+    assert (stats.states, stats.llm_calls, stats.votes, stats.unusable_replies) == (1, 1, 3, 2)
+    assert stats.prompt_tokens == 100 and stats.completion_tokens == 100
+
+
+def test_prior_asks_once_per_distinct_state(problems, domain_factory) -> None:
+    problem = problems["P2"]
+    first = problem.initial_state
+    second = _moved(first, "bottle1", 0.01)
+    legal = domain_factory("P2").legal_actions(first)
+    backend = ScriptedRepliesBackendDouble(MIXED_REPLIES)
+    literals = SymbolicLiteralsDouble()
+    prior = _prior(problem, backend, literals)
+    a = prior(first, legal)
+    assert np.array_equal(prior(first, legal), a)
+    assert len(backend.requests) == 1 and literals.states == [first]
+    prior(second, legal)
+    prior(second, legal)
+    assert len(backend.requests) == 2 and literals.states == [first, second]
+    seeds = [request.seed for request in backend.requests]
+    assert seeds == [state_request_seed(0, first), state_request_seed(0, second)]
+    assert seeds[0] != seeds[1]
+    assert prior.stats.states == 2 and prior.stats.llm_calls == 2
+
+
+def test_request_seeds_are_stable_and_depend_on_trial_and_state(problems) -> None:
+    state = problems["P2"].initial_state
+    seed = state_request_seed(0, state)
+    assert seed == state_request_seed(0, _moved(_moved(state, "salter", 0.02), "salter", -0.02))
+    assert seed != state_request_seed(1, state)
+    assert seed != state_request_seed(0, _moved(state, "salter", 0.02))
+    assert 0 <= seed < 2**31
+
+
+def test_after_the_deadline_the_prior_is_uniform_without_asking(problems, domain_factory) -> None:
+    problem = problems["P2"]
+    state = problem.initial_state
+    legal = domain_factory("P2").legal_actions(state)
+    backend = ScriptedRepliesBackendDouble(MIXED_REPLIES)
+    prior = _prior(problem, backend, deadline=time.monotonic() - 1.0)
+    assert prior(state, legal) == pytest.approx([0.2] * 5)
+    assert backend.requests == [] and prior.stats.deadline_fallbacks == 1
+    prior.deadline = None  # the uniform fallback was not memoised: with time left, it asks
+    assert prior(state, legal)[legal.index(Pick("bottle2"))] == pytest.approx(0.375)
+    assert len(backend.requests) == 1
+
+
+def _search(domain, problem, prior: LLMPrior, budget: int, seed: int = 0, tree=None):
+    """PUCT with ``prior`` from P2's initial state: the tree and the search result."""
+    root = problem.initial_state
+    tree = tree or SearchTree.for_root(domain, root)
+    settings = SearchSettings(budget=budget)
+    policies = replace(
+        SearchPolicies.from_settings(settings), select_action=PUCTSelection(settings.c, prior)
+    )
+    rng = np.random.default_rng(seed)
+    result = warm_started_uct(
+        domain, root, (), rng, settings=settings, policies=policies, tree=tree
+    )
+    return tree, result
+
+
+def _asked_states(tree) -> set:
+    """States the search selected from after their first visit: exactly those with n >= 2
+    (a node is created as a leaf with one visit; the root's first selection has N = 0)."""
+    return {s for s in tree.states() if tree.visits(s) >= 2}
+
+
+def test_search_calls_the_model_once_per_state_it_selects_from_and_more_as_it_grows(
+    problems, domain_factory
+) -> None:
+    problem = problems["P2"]
+    domain = domain_factory("P2")
+    backend = PlanFollowingBackendDouble(P2_PLAN)
+    prior = _prior(problem, backend, SymbolicLiteralsDouble(["kitchen_door"]))
+    tree, _ = _search(domain, problem, prior, budget=6)
+    asked = _asked_states(tree)
+    assert len(backend.requests) == len(asked) == prior.stats.states >= 1
+    assert {r.seed for r in backend.requests} == {state_request_seed(0, s) for s in asked}
+    calls_before = len(backend.requests)
+    nodes_before = len(tree)
+    # search on in the same tree with the same prior: new nodes, new calls, none repeated
+    tree, _ = _search(domain, problem, prior, budget=12, seed=1, tree=tree)
+    assert len(tree) > nodes_before
+    assert len(backend.requests) == len(_asked_states(tree)) > calls_before
+    assert len({r.seed for r in backend.requests}) == len(backend.requests)
+
+
+class ReplayOnlyBackendDouble(ScriptedRepliesBackendDouble):
+    """Must never be reached: every request has to come from the reply cache."""
+
+    def complete(self, request: LLMRequest) -> LLMResponse:
+        raise AssertionError(f"the cache should have answered seed {request.seed}")
+
+
+def test_same_seed_and_replies_give_the_same_search_also_replayed_from_the_cache(
+    problems, domain_factory, tmp_path
+) -> None:
+    problem = problems["P2"]
+    domain = domain_factory("P2")
+    cache = ReplyCache(tmp_path / "replies.sqlite")
+    first_backend = PlanFollowingBackendDouble(P2_PLAN)
+    first_prior = _prior(
+        problem,
+        CachedBackend(first_backend, cache, mode="use"),
+        SymbolicLiteralsDouble(["kitchen_door"]),
+        seed=5,
+    )
+    first, first_result = _search(domain, problem, first_prior, budget=12, seed=5)
+    replay = CachedBackend(ReplayOnlyBackendDouble(MIXED_REPLIES), cache, mode="replay")
+    prior = _prior(problem, replay, SymbolicLiteralsDouble(["kitchen_door"]), seed=5)
+    second, second_result = _search(domain, problem, prior, budget=12, seed=5)
+    assert len(first_backend.requests) >= 2, "several states got a model prior"
+    assert first.snapshot(str) == second.snapshot(str)
+    assert first_result.best_action == second_result.best_action
+    assert prior.stats.cached_calls == prior.stats.llm_calls == len(first_backend.requests)
+
+
+def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
+    planner = build_planner("llm-mcts", PlannerConfig(llm="http://127.0.0.1:9/v1#m"))
+    assert isinstance(planner, LlmMctsPlanner) and planner.name == "llm-mcts"
+    assert planner.settings.search.budget == 35 and planner.settings.search.c == 50.0
+    assert planner.settings.samples == 5 and planner.settings.uniform_weight == 0.5
+    custom = build_llm_mcts(PlannerConfig(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3), None)
+    assert custom.settings.search.budget == 7 and custom.settings.samples == 3
+
+
+@pytest.mark.slow
+def test_llm_mcts_solves_p2_when_the_replies_start_with_the_right_actions(problems) -> None:
+    problem = problems["P2"]
+    backend = PlanFollowingBackendDouble(P2_PLAN)
+    planner = LlmMctsPlanner(LLMProposer(backend), LlmMctsSettings())
+    result = planner.solve(problem, seed=0, time_budget_s=240.0)
+    data = json.loads(json.dumps(result.to_json()))
+    assert data["success"] is True and data["termination"] == "goal", data["termination"]
+    assert data["planner"] == "llm-mcts"
+    assert replay_result_json(problem, data).reached_goal
+    prior = data["details"]["prior"]
+    assert data["counters"]["llm_calls"] == len(backend.requests) == prior["states"] >= 1
+    assert prior["votes"] > 0 and prior["deadline_fallbacks"] == 0
+    assert data["counters"]["simulations"] >= 1
+    times = data["times"]
+    assert times["predicates"] > 0 and times["llm"] > 0
+    assert times["predicates"] + times["llm"] + times["tree_search"] <= times["total"]
