@@ -131,7 +131,8 @@ def solve_command(
         ),
         cache_mode=cache,
     )
-    if entry.uses_llm and (proposer_name == "llm" or entry.name != "stalm"):
+    symbolic = proposer_name == "symbolic" and entry.name in ("stalm", "stalm-no-uct")
+    if entry.uses_llm and not symbolic:
         from stalm.llm.backends import make_backend
 
         backend = make_backend(llm)  # no model is loaded here
