@@ -86,7 +86,14 @@ def build_table(records: Iterable[dict[str, Any]]) -> Table:
             budget_s=max(float(r.get("time_budget_s", 0.0)) for r in group),
         )
         times[key] = tuple(sorted(success))
-    return Table(tuple(rows), tuple(sorted(problems)), cells, times)
+    return Table(_paper_order(rows), tuple(sorted(problems)), cells, times)
+
+
+def _paper_order(rows: list[str]) -> tuple[str, ...]:
+    """Rows named like Table 2's in the paper's order, then the others as first seen (a run
+    with two workers finishes trials out of order, so first-seen alone would shuffle rows)."""
+    known = [name for name in TABLE2 if name in rows]
+    return tuple(known + [row for row in rows if row not in known])
 
 
 def _time_text(seconds: float | None) -> str:
@@ -163,31 +170,35 @@ def csv_table(table: Table) -> str:
     return buffer.getvalue()
 
 
-def failure_shares(records: Iterable[dict[str, Any]]) -> dict[str, dict[str, float]]:
-    """Figure 5: per problem, each failure kind's share of the failed task plans."""
-    counts: dict[str, dict[str, int]] = defaultdict(lambda: dict.fromkeys(FAILURE_KINDS, 0))
+def failure_shares(records: Iterable[dict[str, Any]]) -> dict[tuple[str, str], dict[str, float]]:
+    """Figure 5: per (row, problem), each failure kind's share of the failed task plans.
+
+    Kept per row, because a model's mistakes and a classical planner's are different things.
+    """
+    counts: dict[tuple[str, str], dict[str, int]] = defaultdict(
+        lambda: dict.fromkeys(FAILURE_KINDS, 0)
+    )
     for record in latest_records(records):
-        failures = record.get("llm_plan_failures") or {}
-        for kind, count in failures.items():
-            counts[str(record["problem"])][kind] = counts[str(record["problem"])].get(kind, 0) + (
-                int(count)
-            )
+        key = (str(record["arm"]), str(record["problem"]))
+        for kind, count in (record.get("llm_plan_failures") or {}).items():
+            counts[key][kind] = counts[key].get(kind, 0) + int(count)
     shares = {}
-    for problem in sorted(counts):
-        total = sum(counts[problem].values())
+    for key in sorted(counts):
+        total = sum(counts[key].values())
         if total:
-            shares[problem] = {kind: n / total for kind, n in counts[problem].items()}
+            shares[key] = {kind: n / total for kind, n in counts[key].items()}
     return shares
 
 
-def markdown_failures(shares: dict[str, dict[str, float]]) -> str:
+def markdown_failures(shares: dict[tuple[str, str], dict[str, float]]) -> str:
     if not shares:
         return "No record holds failed task plans (Figure 5 needs STaLM's records).\n"
     kinds = [k for k in FAILURE_KINDS if any(s.get(k) for s in shares.values())]
-    lines = ["| Problem | " + " | ".join(k.replace("_", " ") for k in kinds) + " |"]
-    lines.append("| --- | " + " | ".join("---" for _ in kinds) + " |")
-    for problem, share in shares.items():
-        lines.append(f"| {problem} | " + " | ".join(f"{share.get(k, 0):.2f}" for k in kinds) + " |")
+    lines = ["| Method | Problem | " + " | ".join(k.replace("_", " ") for k in kinds) + " |"]
+    lines.append("| --- | --- | " + " | ".join("---" for _ in kinds) + " |")
+    for (row, problem), share in shares.items():
+        values = " | ".join(f"{share.get(k, 0):.2f}" for k in kinds)
+        lines.append(f"| {row} | {problem} | {values} |")
     return "\n".join(lines) + "\n"
 
 
@@ -208,6 +219,9 @@ def plot_success_over_time(table: Table, path: Path) -> Path:
             (table.cells[(r, problem)].budget_s for r in table.rows if (r, problem) in table.cells),
             default=1.0,
         )
+        # a running simulation is never cut, so a success may land just past the budget
+        latest = [t for r in table.rows for t in table.success_times.get((r, problem), ())]
+        budget = max([budget, *latest])
         for row in table.rows:
             cell = table.cells.get((row, problem))
             if cell is None:
@@ -232,23 +246,25 @@ def plot_success_over_time(table: Table, path: Path) -> Path:
     return path
 
 
-def plot_failures(shares: dict[str, dict[str, float]], path: Path) -> Path:
-    """Figure 5 as stacked bars: the failure kinds' shares per problem."""
+def plot_failures(shares: dict[tuple[str, str], dict[str, float]], path: Path) -> Path:
+    """Figure 5 as stacked bars: the failure kinds' shares per row and problem."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    figure, axis = plt.subplots(figsize=(6, 3.4))
-    problems = list(shares)
-    bottom = [0.0] * len(problems)
+    keys = list(shares)
+    labels = [f"{row}\n{problem}" for row, problem in keys]
+    figure, axis = plt.subplots(figsize=(max(6.0, 0.9 * len(keys)), 3.8))
+    bottom = [0.0] * len(keys)
     for kind in FAILURE_KINDS:
-        values = [shares[p].get(kind, 0.0) for p in problems]
+        values = [shares[k].get(kind, 0.0) for k in keys]
         if not any(values):
             continue
-        axis.bar(problems, values, bottom=bottom, label=kind.replace("_", " "))
+        axis.bar(labels, values, bottom=bottom, label=kind.replace("_", " "))
         bottom = [b + v for b, v in zip(bottom, values, strict=True)]
     axis.set_ylabel("share of failed task plans")
+    axis.tick_params(axis="x", labelsize="x-small")
     axis.set_ylim(0, 1)
     axis.legend(fontsize="small")
     figure.tight_layout()

@@ -43,7 +43,7 @@ RECORDS = [
 
 def test_cells_hold_rates_mean_success_times_timeouts_and_errors() -> None:
     table = build_table(RECORDS)
-    assert table.rows == ("stalm", "uct")
+    assert table.rows == ("uct", "stalm")  # the paper's order
     assert table.problems == ("P1", "P2")
     stalm_p1 = table.cells[("stalm", "P1")]
     assert (stalm_p1.trials, stalm_p1.successes, stalm_p1.mean_success_time_s) == (2, 2, 15.0)
@@ -56,9 +56,9 @@ def test_markdown_is_the_papers_layout_with_t_o_and_the_papers_numbers() -> None
     text = markdown_table(build_table(RECORDS), paper=True)
     lines = text.splitlines()
     assert lines[0] == "| Method | Metric | P1 | P2 |"
-    assert lines[2].startswith("| stalm | Success rate | 1.00 (2/2) [1.00]")
-    assert lines[3] == "|  | Time (s) | 15.0 [31.2] | t/o [54.2] |"
-    assert "1 err" in lines[4]
+    assert "1 err" in lines[2]  # uct's row
+    assert lines[4].startswith("| stalm | Success rate | 1.00 (2/2) [1.00]")
+    assert lines[5] == "|  | Time (s) | 15.0 [31.2] | t/o [54.2] |"
 
 
 def test_csv_has_one_line_per_cell() -> None:
@@ -69,11 +69,16 @@ def test_csv_has_one_line_per_cell() -> None:
     assert uct_p1["errors"] == "1"
 
 
-def test_failure_shares_sum_to_one_per_problem() -> None:
+def test_failure_shares_sum_to_one_per_row_and_problem() -> None:
     shares = failure_shares(RECORDS)
-    assert list(shares) == ["P1"]
-    assert shares["P1"]["precondition_violation"] == 0.75
-    assert shares["P1"]["lack_of_3d_understanding"] == 0.25
+    assert list(shares) == [("stalm", "P1")]
+    assert shares[("stalm", "P1")]["precondition_violation"] == 0.75
+    assert shares[("stalm", "P1")]["lack_of_3d_understanding"] == 0.25
+
+
+def test_rows_follow_the_papers_order_whatever_finished_first() -> None:
+    table = build_table([RECORDS[3], RECORDS[0], _record("9", "mine", "P1", True, 1.0)])
+    assert table.rows == ("uct", "stalm", "mine")
 
 
 def test_write_report_saves_markdown_csv_and_plots(tmp_path: Path) -> None:
