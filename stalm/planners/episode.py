@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -20,6 +21,7 @@ from stalm.domain.params import Action
 from stalm.planners.base import Counters, PhaseTimes, PlanResult
 from stalm.planners.proposers import Proposal
 from stalm.planners.replay import replay_plan
+from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -50,6 +52,9 @@ class Episode:
     llm_calls: int = 0
     prompt_tokens: int = 0
     completion_tokens: int = 0
+    _predicates: PredicateCache | None = None
+    _predicates_at: int = 0
+    """How many executed actions ``_predicates`` is up to date with."""
 
     @staticmethod
     def begin(problem: Problem, time_budget_s: float | None) -> Episode:
@@ -71,6 +76,25 @@ class Episode:
         if self.out_of_time():
             return "timeout"
         return None
+
+    def predicates(self, engine: PredicateEngine) -> PredicateCache:
+        """The current state's predicates, timed as the 'predicates' phase.
+
+        Computed from scratch once; after that brought forward through every action executed
+        since the last call with Appendix A's cached update (equal to a full computation), so
+        a planner asking once per step pays only for what its actions changed.
+        """
+        tick = time.monotonic()
+        if self._predicates is None:
+            self._predicates = engine.compute(self.state)
+        else:
+            for index in range(self._predicates_at, len(self.executed)):
+                self._predicates = engine.update(
+                    self._predicates, self.executed[index].discrete, self.states[index + 1]
+                )
+        self._predicates_at = len(self.executed)
+        self.clock.predicates += time.monotonic() - tick
+        return self._predicates
 
     def record_query(self, proposal: Proposal) -> None:
         """Add one language-model query's calls, tokens and seconds."""
@@ -136,3 +160,18 @@ class Episode:
             llm_plan_failures=dict(self.failures),
             details={**(details or {}), "replay_failure": replay_reason},
         )
+
+
+def run_episode(
+    problem: Problem,
+    time_budget_s: float | None,
+    run: Callable[[Domain, Episode], PlanResult],
+) -> PlanResult:
+    """Start a trial's clock and its own simulator, run ``run``, and always close the
+    simulator (one PyBullet client per trial)."""
+    episode = Episode.begin(problem, time_budget_s)
+    domain = Domain.create(problem)
+    try:
+        return run(domain, episode)
+    finally:
+        domain.close()

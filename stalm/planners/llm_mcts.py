@@ -29,7 +29,7 @@ import numpy as np
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.mdp import Domain
 from stalm.planners.base import PlanResult
-from stalm.planners.episode import Episode
+from stalm.planners.episode import Episode, run_episode
 from stalm.planners.proposers import LLMProposer, TaskPlanProposer
 from stalm.planners.registry import PlannerConfig, llm_backend, use_constraint
 from stalm.predicates.engine import PredicateEngine
@@ -191,12 +191,7 @@ class LlmMctsPlanner:
             self.progress(message)
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
-        episode = Episode.begin(problem, time_budget_s)
-        domain = Domain.create(problem)
-        try:
-            return self._run(domain, episode, seed)
-        finally:
-            domain.close()
+        return run_episode(problem, time_budget_s, lambda d, e: self._run(d, e, seed))
 
     def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
         problem = episode.problem

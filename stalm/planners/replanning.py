@@ -30,11 +30,11 @@ from stalm.llm.feedback_prompt import MAX_FAILED_PLANS, FailedPlan, with_feedbac
 from stalm.llm.problem_prompt import problem_prompt
 from stalm.llm.prompt import PromptOptions
 from stalm.planners.base import PlanResult
-from stalm.planners.episode import Episode
+from stalm.planners.episode import Episode, run_episode
 from stalm.planners.plan_queries import query_seed
 from stalm.planners.proposers import ask_for_task_plans
 from stalm.planners.registry import PlannerConfig, Progress, llm_backend, use_constraint
-from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.predicates.engine import PredicateEngine
 from stalm.search import TaskPlan, concretize
 from stalm.search.concretize import ConcretePlan
 from stalm.world.problem import Problem
@@ -80,20 +80,13 @@ class IterativeReplanningPlanner:
             self.progress(message)
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
-        episode = Episode.begin(problem, time_budget_s)
-        domain = Domain.create(problem)
-        try:
-            return self._run(domain, episode, seed)
-        finally:
-            domain.close()
+        return run_episode(problem, time_budget_s, lambda d, e: self._run(d, e, seed))
 
     def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
         problem = episode.problem
         engine = PredicateEngine(problem, domain.sim, domain.base_planner)
         vocabulary = Vocabulary.from_problem(problem)
         rng = np.random.default_rng(seed)
-        predicates: PredicateCache | None = None
-        predicates_at = -1  # how many executed actions the predicates' state follows
         memory: list[FailedPlan] = []
         queries = feedback_queries = forced_steps = rounds = 0
         while True:
@@ -101,16 +94,8 @@ class IterativeReplanningPlanner:
             if termination is not None:
                 break
             done = len(episode.executed)
-            if predicates is None or done != predicates_at:
-                tick = time.monotonic()
-                self._say(f"step {done}: predicates")
-                if predicates is not None and done == predicates_at + 1:
-                    last = episode.executed[-1].discrete
-                    predicates = engine.update(predicates, last, episode.state)
-                else:
-                    predicates = engine.compute(episode.state)
-                predicates_at = done
-                episode.clock.predicates += time.monotonic() - tick
+            self._say(f"step {done}: predicates")
+            predicates = episode.predicates(engine)
             base_prompt = problem_prompt(problem, predicates.literals, self.options)
             latest: ConcretePlan | None = None
             to_execute: tuple[Action, ...] = ()

@@ -20,7 +20,6 @@ actions only burns the time budget.
 
 from __future__ import annotations
 
-import time
 from collections import Counter
 from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -36,11 +35,11 @@ from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.saycan_prompt import saycan_prompt
 from stalm.planners.base import PlanResult
-from stalm.planners.episode import Episode
+from stalm.planners.episode import Episode, run_episode
 from stalm.planners.plan_queries import query_seed
 from stalm.planners.proposers import ask_for_task_plans
 from stalm.planners.registry import PlannerConfig, Progress, llm_backend, use_constraint
-from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral
 from stalm.world.problem import Problem
 from stalm.world.state import State
@@ -171,31 +170,20 @@ class EpSayCanPlanner:
             self.progress(message)
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
-        episode = Episode.begin(problem, time_budget_s)
-        domain = Domain.create(problem)
-        try:
-            return self._run(domain, episode, seed)
-        finally:
-            domain.close()
+        return run_episode(problem, time_budget_s, lambda d, e: self._run(d, e, seed))
 
     def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
         problem = episode.problem
         engine = PredicateEngine(problem, domain.sim, domain.base_planner)
         rng = np.random.default_rng(seed)
-        predicates: PredicateCache | None = None
         tally = DecisionTally()
         step = 0
         while True:
             termination = episode.stop_reason(domain)
             if termination is not None:
                 break
-            tick = time.monotonic()
             self._say(f"step {step}: predicates")
-            if predicates is None:
-                predicates = engine.compute(episode.state)
-            else:
-                predicates = engine.update(predicates, episode.executed[-1].discrete, episode.state)
-            episode.clock.predicates += time.monotonic() - tick
+            predicates = episode.predicates(engine)
             chosen = self.decide(domain, episode, predicates.literals, seed, step, rng, tally)
             if chosen is None:
                 termination = "timeout" if episode.out_of_time() else "no_progress"

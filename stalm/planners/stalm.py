@@ -20,10 +20,10 @@ import numpy as np
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
 from stalm.planners.base import PlanResult
-from stalm.planners.episode import Episode
+from stalm.planners.episode import Episode, run_episode
 from stalm.planners.hcount import hcount_value
 from stalm.planners.proposers import TaskPlanProposer
-from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.predicates.engine import PredicateEngine
 from stalm.search import (
     SearchPolicies,
     SearchSettings,
@@ -76,12 +76,7 @@ class StalmPlanner:
             self.progress(message)
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
-        episode = Episode.begin(problem, time_budget_s)
-        domain = Domain.create(problem)
-        try:
-            return self._run(domain, episode, seed)
-        finally:
-            domain.close()
+        return run_episode(problem, time_budget_s, lambda d, e: self._run(d, e, seed))
 
     def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
         problem = episode.problem
@@ -91,7 +86,6 @@ class StalmPlanner:
         horizon = problem.horizon
         search = self.settings.search
         clock = episode.clock
-        predicates: PredicateCache | None = None
         simulations = replans = 0
         step = 0
         while (termination := episode.stop_reason(domain)) is None:
@@ -100,13 +94,8 @@ class StalmPlanner:
             replans += 1
             task_plans: list[TaskPlan] = []
             if self.proposer is not None:
-                tick = time.monotonic()
                 self._say(f"step {done}: predicates")
-                if predicates is None:
-                    predicates = engine.compute(state)
-                else:
-                    predicates = engine.update(predicates, episode.executed[-1].discrete, state)
-                clock.predicates += time.monotonic() - tick
+                predicates = episode.predicates(engine)
 
                 self._say(f"step {done}: asking {self.proposer.name} for task plans")
                 proposal = self.proposer.propose(
