@@ -5,7 +5,9 @@ o_target in O_goal], where M holds the objects (and doors) that occlude picking 
 goal object not yet at its goal, and recursively what occludes picking those. As a node value
 for UCT: Q = 3 n(O_goal) - 3 Hcount. Its occlusions come from the geometric predicates, which
 must be computed at every leaf the search evaluates: the cost the paper blames for
-UCT-with-Hcount's time-outs.
+UCT-with-Hcount's time-outs. :class:`HcountLeafValue` pays it the way STaLM pays for its
+queries (Appendix A): each leaf's predicates are brought forward from its parent's through the
+action between them, not computed from scratch.
 
 ``o_target`` is the object the action into the node moved; a State records only what is in
 the hand, so the held object stands in for it (None after a PLACE).
@@ -16,7 +18,13 @@ from __future__ import annotations
 from collections import defaultdict
 from collections.abc import Iterable
 
+import numpy as np
+
+from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.predicates.literals import GroundLiteral
+from stalm.search import LeafValue
+from stalm.search.mdp import SearchMDP
+from stalm.search.tree import Edge
 from stalm.world.problem import Problem
 from stalm.world.relations import at_position
 from stalm.world.state import State
@@ -74,3 +82,51 @@ def hcount_value(problem: Problem, literals: Iterable[GroundLiteral], state: Sta
     """Q = 3 n(O_goal) - 3 Hcount (Appendix C)."""
     goal_objects = {g.obj for g in problem.goal}
     return 3.0 * len(goal_objects) - 3.0 * hcount(problem, literals, state)
+
+
+class HcountLeafValue:
+    """UCT-with-Hcount's leaf value: ``hcount_value`` of the leaf's predicates.
+
+    A leaf's predicates are derived from its parent's with :meth:`PredicateEngine.update`
+    along the edge the search took into it (equal to computing them from scratch, and several
+    times cheaper); only a state reached by no known edge, such as a search root, is computed
+    from scratch. Predicates and values are kept per state for the whole trial, since the
+    trees of later real steps revisit the states of earlier ones. Deterministic: the value of a
+    state never depends on the generator.
+    """
+
+    def __init__(self, problem: Problem, engine: PredicateEngine) -> None:
+        self.problem = problem
+        self.engine = engine
+        self._predicates: dict[State, PredicateCache] = {}
+        self._values: dict[State, float] = {}
+        self.computed_from_scratch = 0
+        self.brought_forward = 0
+
+    def __call__(
+        self,
+        mdp: SearchMDP,
+        state: State,
+        depth: int,
+        rng: np.random.Generator,
+        arrival: Edge | None = None,
+    ) -> LeafValue:
+        if state not in self._values:
+            literals = self.predicates(state, arrival).literals
+            self._values[state] = hcount_value(self.problem, literals, state)
+        return LeafValue(self._values[state])
+
+    def predicates(self, state: State, arrival: Edge | None = None) -> PredicateCache:
+        """The predicates of ``state``, from its parent's if ``arrival`` leads into it."""
+        known = self._predicates.get(state)
+        if known is not None:
+            return known
+        if arrival is None:
+            cache = self.engine.compute(state)
+            self.computed_from_scratch += 1
+        else:
+            parent = self.predicates(arrival.state)
+            cache = self.engine.update(parent, arrival.action, state)
+            self.brought_forward += 1
+        self._predicates[state] = cache
+        return cache

@@ -21,19 +21,17 @@ from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
 from stalm.planners.base import PlanResult
 from stalm.planners.episode import Episode, run_episode
-from stalm.planners.hcount import hcount_value
+from stalm.planners.hcount import HcountLeafValue
 from stalm.planners.proposers import TaskPlanProposer
 from stalm.predicates.engine import PredicateEngine
 from stalm.search import (
     SearchPolicies,
     SearchSettings,
-    StateValue,
     TaskPlan,
     concretize,
     warm_started_uct,
 )
 from stalm.world.problem import Problem
-from stalm.world.state import State
 
 Progress = Callable[[str], None]
 
@@ -68,7 +66,7 @@ class StalmPlanner:
     def _policies(self, problem: Problem, engine: PredicateEngine) -> SearchPolicies:
         policies = SearchPolicies.from_settings(self.settings.search)
         if self.settings.leaf_value == "hcount":
-            return replace(policies, value=_hcount_leaf_value(problem, engine))
+            return replace(policies, value=HcountLeafValue(problem, engine))
         return policies
 
     def _say(self, message: str) -> None:
@@ -149,7 +147,14 @@ class StalmPlanner:
                 episode.execute(domain, action)
                 self._say(f"executed {action.discrete}")
 
-        proposer = self.proposer.name if self.proposer is not None else None
+        details: dict[str, object] = {
+            "proposer": self.proposer.name if self.proposer is not None else None
+        }
+        if isinstance(policies.value, HcountLeafValue):
+            details["hcount_leaves"] = {
+                "predicates_from_scratch": policies.value.computed_from_scratch,
+                "predicates_brought_forward": policies.value.brought_forward,
+            }
         return episode.finish(
             domain,
             self.name,
@@ -157,20 +162,8 @@ class StalmPlanner:
             termination,
             simulations=simulations,
             replans=replans,
-            details={"proposer": proposer},
+            details=details,
         )
-
-
-def _hcount_leaf_value(problem: Problem, engine: PredicateEngine) -> StateValue:
-    """Hcount at a leaf: the leaf's predicates computed from scratch (memoised per state)."""
-    memo: dict[State, float] = {}
-
-    def value(state: State, depth: int) -> float:
-        if state not in memo:
-            memo[state] = hcount_value(problem, engine.compute(state).literals, state)
-        return memo[state]
-
-    return StateValue(value)
 
 
 def _first_action_of_best_prefix(plans: object) -> tuple[Action, ...]:

@@ -23,7 +23,7 @@ from stalm.domain.params import Action
 from stalm.search.mdp import SearchMDP
 from stalm.search.settings import SearchSettings
 from stalm.search.transition import apply, draw
-from stalm.search.tree import ChildStats, ContinuousNodeView, DiscreteNodeView, KappaView
+from stalm.search.tree import ChildStats, ContinuousNodeView, DiscreteNodeView, Edge, KappaView
 from stalm.world.state import State
 
 # ------------------------------------------------------------------------------ selection
@@ -112,12 +112,19 @@ class ValueFunction(Protocol):
 
     The MDP and the generator are passed in rather than stored, so a value function is plain
     settings (frozen, shareable) and its ψ and T calls go through the search's counting
-    wrapper. A deterministic estimate ``(state, depth) -> float`` such as Hcount plugs in
-    through :class:`StateValue`.
+    wrapper. ``arrival`` is the edge the search took into the leaf (None when there is none),
+    so an estimate that is costly from scratch can be derived from the parent's instead (Hcount
+    brings the parent's predicates forward). A deterministic estimate ``(state, depth) ->
+    float`` plugs in through :class:`StateValue`.
     """
 
     def __call__(
-        self, mdp: SearchMDP, state: State, depth: int, rng: np.random.Generator
+        self,
+        mdp: SearchMDP,
+        state: State,
+        depth: int,
+        rng: np.random.Generator,
+        arrival: Edge | None = None,
     ) -> LeafValue: ...
 
 
@@ -183,7 +190,12 @@ class RolloutValue:
     horizon: int
 
     def __call__(
-        self, mdp: SearchMDP, state: State, depth: int, rng: np.random.Generator
+        self,
+        mdp: SearchMDP,
+        state: State,
+        depth: int,
+        rng: np.random.Generator,
+        arrival: Edge | None = None,
     ) -> LeafValue:
         result = rollout(mdp, state, depth, rng, gamma=self.gamma, horizon=self.horizon)
         return LeafValue(result.value, result.actions if result.end == "goal" else None)
@@ -196,7 +208,12 @@ class StateValue:
     fn: Callable[[State, int], float]
 
     def __call__(
-        self, mdp: SearchMDP, state: State, depth: int, rng: np.random.Generator
+        self,
+        mdp: SearchMDP,
+        state: State,
+        depth: int,
+        rng: np.random.Generator,
+        arrival: Edge | None = None,
     ) -> LeafValue:
         return LeafValue(self.fn(state, depth))
 

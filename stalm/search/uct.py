@@ -99,7 +99,7 @@ def simulate(
             state = following
             continue
         tree.add_node(following, mdp.legal_actions(following))
-        estimate = policies.value(mdp, following, depth, rng)
+        estimate = policies.value(mdp, following, depth, rng, arrival=edge)
         end, tail, leaf = "leaf", estimate.value, following
         if estimate.goal_plan is not None:
             goal_plan = tuple(actions) + estimate.goal_plan

@@ -80,7 +80,7 @@ def add_plan(
         if following not in tree:
             tree.add_node(following, mdp.legal_actions(following))
         if position == last:
-            estimate = value(mdp, following, depth, rng)
+            estimate = value(mdp, following, depth, rng, arrival=path[-1])
             tail = estimate.value
             leaf = following
             if estimate.goal_plan is not None:

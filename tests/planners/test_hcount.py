@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
-from stalm.planners.hcount import hcount, hcount_value, objects_in_goal, occluder_set
+from stalm.domain.actions import Open, Pick
+from stalm.planners.hcount import (
+    HcountLeafValue,
+    hcount,
+    hcount_value,
+    objects_in_goal,
+    occluder_set,
+)
 from stalm.planners.stalm import StalmPlanner, StalmSettings
+from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral as L
 from stalm.search import SearchSettings
+from stalm.search.tree import Edge
 
 
 def test_hcount_on_hand_made_literals(problems) -> None:
@@ -70,3 +80,45 @@ def test_uct_hcount_runs(problems) -> None:
     )
     result = planner.solve(problems["P2"], seed=0, time_budget_s=5.0)
     assert planner.name == "uct-hcount" and result.counters.simulations >= 1
+    leaves = result.details["hcount_leaves"]
+    # the first root is computed from scratch; every leaf after it comes from its parent
+    assert leaves["predicates_from_scratch"] >= 1
+    assert leaves["predicates_brought_forward"] >= 1
+
+
+def test_leaf_values_brought_forward_from_the_parent_equal_values_from_scratch(
+    domain_factory,
+) -> None:
+    domain = domain_factory("P2")
+    problem = domain.problem
+    engine = PredicateEngine(problem, domain.sim, domain.base_planner)
+    leaf_value = HcountLeafValue(problem, engine)
+    rng = np.random.default_rng(5)
+
+    def step(state, action):
+        for _ in range(6):
+            kappa, outcome = domain.sample_and_step(state, action, rng)
+            if outcome.feasible:
+                return Edge(state, action, kappa), outcome.state
+        raise AssertionError(f"{action} never feasible")
+
+    root = problem.initial_state
+    opened_edge, opened = step(root, Open("kitchen_door"))
+    # two siblings under the same parent: the parent's predicates must serve both unchanged
+    picked1_edge, picked1 = step(opened, Pick("bottle1"))
+    picked2_edge, picked2 = step(opened, Pick("bottle2"))
+    values = {
+        root: leaf_value(None, root, 0, rng),  # type: ignore[arg-type]
+        opened: leaf_value(None, opened, 1, rng, arrival=opened_edge),  # type: ignore[arg-type]
+        picked1: leaf_value(None, picked1, 2, rng, arrival=picked1_edge),  # type: ignore[arg-type]
+        picked2: leaf_value(None, picked2, 2, rng, arrival=picked2_edge),  # type: ignore[arg-type]
+    }
+    assert (leaf_value.computed_from_scratch, leaf_value.brought_forward) == (1, 3)
+    for state, estimate in values.items():
+        scratch = hcount_value(problem, engine.compute(state).literals, state)
+        assert estimate.value == scratch and estimate.goal_plan is None
+    # holding bottle1 and holding bottle2 leave different occluders of the salter
+    assert leaf_value.predicates(picked1).literals != leaf_value.predicates(picked2).literals
+    # asked again (as a later real step's tree would), nothing is recomputed
+    assert leaf_value(None, picked2, 2, rng).value == values[picked2].value  # type: ignore[arg-type]
+    assert (leaf_value.computed_from_scratch, leaf_value.brought_forward) == (1, 3)
