@@ -2,20 +2,23 @@
 
 SayCan multiplies a language model's likelihood of each skill by the skill's affordance and
 executes the argmax. GPT-4 gives no log-probabilities of prompt tokens, so the paper (after Zhao
-et al., 2024) uses the *empirical* policy: ask N_batch = 5 replies at temperature 1 and score an
-action by the fraction of replies whose plan starts with it. The prompt is SayCan's own (task,
-action vocabulary, history; :mod:`stalm.llm.saycan_prompt`), without STaLM's predicates; that is
-the point of the baseline. Affordance is 1 when the action's symbolic precondition holds and the
-state's geometric predicates do not mark it occluded (PickOccludedBy for PICK, PlaceOccludedBy
-for PLACE), else 0 -- the authors removed occluded actions before the argmax.
+et al., 2024) uses the *empirical* policy: ask N_batch = 5 replies at temperature 1 and count
+the replies whose plan starts with each action. As in the authors' code, the LLM score is the
+same prior LLM-MCTS uses (:func:`stalm.search.puct.vote_prior`): votes/5 mixed 0.5 with uniform
+over the legal actions, so an affordable action the replies never named still scores above 0.
+The prompt is SayCan's own (task, action vocabulary, history; :mod:`stalm.llm.saycan_prompt`),
+without STaLM's predicates; that is the point of the baseline. Affordance is 1 when the action's
+symbolic precondition holds and the state's geometric predicates do not mark it occluded
+(PickOccludedBy for PICK, PlaceOccludedBy for PLACE), else 0 -- the authors removed occluded
+actions before the argmax.
 
 One step: compute the predicates, query, score, take the argmax (ties broken by the trial's
 generator), draw κ with ψ up to 3 times and execute the first feasible draw. An action without a
-feasible κ is excluded at this state and the next best is taken. Choice documented here: when
-every product is 0 (the replies name no affordable action, or all were excluded) the planner
-asks again with the next derived seed; after ``max_queries_per_step`` such queries at one state
-the trial ends as 'no_progress', because a state the model keeps answering with unaffordable
-actions only burns the time budget.
+feasible κ is excluded at this state and the next best is taken. When every product is 0 the
+step cannot go on: if no affordable action is left, asking again cannot help and the trial ends
+as 'no_progress' at once; if the replies alone gave the affordable actions no mass (possible only
+with ``uniform_weight = 0``), the planner asks again with the next derived seed, up to
+``max_queries_per_step`` queries at one state.
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ from stalm.planners.proposers import ask_for_task_plans
 from stalm.planners.registry import PlannerConfig, Progress, llm_backend, use_constraint
 from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral
+from stalm.search.puct import vote_prior
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -49,10 +53,11 @@ Affordance = Callable[[DiscreteAction], bool]
 
 @dataclass(frozen=True)
 class SayCanScore:
-    """One candidate action's LLM score (share of replies starting with it), its 0/1
-    affordance and their product, the score SayCan maximises."""
+    """One candidate action's votes (replies whose plan starts with it), its LLM score (the
+    votes mixed with uniform), its 0/1 affordance and their product, which SayCan maximises."""
 
     action: DiscreteAction
+    votes: int
     llm: float
     affordance: float
 
@@ -66,19 +71,20 @@ def saycan_scores(
     n_replies: int,
     candidates: Sequence[DiscreteAction],
     affordable: Affordance,
+    uniform_weight: float = 0.5,
 ) -> tuple[SayCanScore, ...]:
     """SayCan's scores of ``candidates`` from the first actions of ``n_replies`` replies.
 
-    The LLM score is the empirical distribution: count / ``n_replies`` (replies without a
-    readable first action still count in the denominator, as a model that wrote nothing usable
-    gave no mass to any action). First actions outside ``candidates`` are dropped.
+    The LLM score is :func:`vote_prior` over the candidates: (1 - w)·votes/``n_replies`` +
+    w/|candidates|, renormalised (replies without a readable first action and first actions
+    outside ``candidates`` count in the denominator but vote for nothing).
     """
-    if n_replies < 1:
-        raise ValueError(f"n_replies must be at least 1, got {n_replies}")
-    counts = Counter(first_actions)
+    firsts = list(first_actions)
+    counts = Counter(firsts)
+    prior = vote_prior(firsts, candidates, n_replies, uniform_weight)
     return tuple(
-        SayCanScore(action, counts[action] / n_replies, 1.0 if affordable(action) else 0.0)
-        for action in candidates
+        SayCanScore(action, counts[action], float(p), 1.0 if affordable(action) else 0.0)
+        for action, p in zip(candidates, prior, strict=True)
     )
 
 
@@ -143,12 +149,16 @@ class DecisionTally:
 
 @dataclass(frozen=True)
 class SayCanSettings:
-    """The paper's EP-SayCan: 5 replies per decision, up to 3 κ draws per chosen action."""
+    """The paper's EP-SayCan: 5 replies per decision, up to 3 κ draws per chosen action, the
+    replies' votes mixed 0.5 with uniform (the authors' prior)."""
 
     n_batch: int = 5
     kappa_tries: int = 3
+    uniform_weight: float = 0.5
+    """Weight of the uniform distribution in the LLM score; 0 scores by the votes alone."""
     max_queries_per_step: int = 3
-    """Queries at one state whose scores are all 0 before the trial ends as 'no_progress'."""
+    """Queries at one state whose replies gave every affordable action a score of 0 before the
+    trial ends as 'no_progress' (only reachable with ``uniform_weight = 0``)."""
     temperature: float = 1.0
 
 
@@ -245,6 +255,7 @@ class EpSayCanPlanner:
                 len(proposal.replies) or self.settings.n_batch,
                 candidates,
                 affordable,
+                self.settings.uniform_weight,
             )
             while not episode.out_of_time():
                 best = saycan_choice(scores, rng, excluded)
@@ -259,6 +270,9 @@ class EpSayCanPlanner:
                 self._say(f"step {step}: no feasible κ for {best}; excluded at this state")
             tally.zero_score_queries += 1
             tally.decisions.append(_decision(step, attempt, proposal.plans, scores, None))
+            if not any(affordable(a) and a not in excluded for a in candidates):
+                self._say(f"step {step}: no affordable action left in this state")
+                return None
         return None
 
     def _draw_kappa(
@@ -279,12 +293,17 @@ def _decision(
     scores: Sequence[SayCanScore],
     chosen: Action | None,
 ) -> dict[str, Any]:
-    """What one query saw and what it chose (None: every score was 0), as JSON-able data."""
+    """What one query saw and what it chose (None: every score was 0), as JSON-able data:
+    the replies' first actions, and each voted candidate's votes, LLM score and affordance."""
     return {
         "step": step,
         "query": attempt,
         "first_actions": [list(plan[0].as_tuple()) for plan in plans],
-        "scored": [[list(s.action.as_tuple()), s.llm, s.affordance] for s in scores if s.llm > 0.0],
+        "voted": [
+            [list(s.action.as_tuple()), s.votes, round(s.llm, 6), s.affordance]
+            for s in scores
+            if s.votes > 0
+        ],
         "chosen": list(chosen.discrete.as_tuple()) if chosen is not None else None,
     }
 

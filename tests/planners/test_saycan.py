@@ -20,6 +20,7 @@ from stalm.planners.saycan import (
     DecisionTally,
     EpSayCanPlanner,
     SayCanScore,
+    SayCanSettings,
     affordance,
     occlusion_free,
     saycan_choice,
@@ -36,23 +37,37 @@ def _score_of(scores: tuple[SayCanScore, ...], action: DiscreteAction) -> SayCan
     return next(s for s in scores if s.action == action)
 
 
-def test_llm_score_is_the_share_of_replies_starting_with_the_action_times_affordance() -> None:
+def test_llm_score_is_the_votes_mixed_half_with_uniform_times_affordance() -> None:
     firsts = [A, A, C, D, D]  # D (pick salter) is occluded
     scores = saycan_scores(firsts, 5, [A, B, C, D], lambda a: a != D)
-    assert [(s.llm, s.affordance, s.score) for s in scores] == [
-        (0.4, 1.0, 0.4),
-        (0.0, 1.0, 0.0),
-        (0.2, 1.0, 0.2),
-        (0.4, 0.0, 0.0),
-    ]
+    # 0.5·votes/5 + 0.5/4: A 0.2 + 0.125, B 0 + 0.125, C 0.1 + 0.125, D 0.2 + 0.125
+    assert [s.votes for s in scores] == [2, 0, 1, 2]
+    assert [s.llm for s in scores] == pytest.approx([0.325, 0.125, 0.225, 0.325])
+    assert [s.affordance for s in scores] == [1.0, 1.0, 1.0, 0.0]
+    assert [s.score for s in scores] == pytest.approx([0.325, 0.125, 0.225, 0.0])
     assert saycan_choice(scores, np.random.default_rng(0)) == A
+
+
+def test_an_affordable_action_no_reply_named_still_scores_through_the_uniform_part() -> None:
+    # every reply names the occluded pick; the affordable actions share the uniform half
+    scores = saycan_scores([D] * 5, 5, [A, C, D], lambda a: a != D)
+    assert [s.score for s in scores] == pytest.approx([1 / 6, 1 / 6, 0.0])
+    assert saycan_choice(scores, np.random.default_rng(0)) in {A, C}
+    # with no uniform part the votes alone decide, and nothing affordable was voted for
+    votes_only = saycan_scores([D] * 5, 5, [A, C, D], lambda a: a != D, uniform_weight=0.0)
+    assert saycan_choice(votes_only, np.random.default_rng(0)) is None
 
 
 def test_unreadable_replies_count_in_the_denominator_and_unknown_firsts_are_dropped() -> None:
     place = Place("salter", "on", "table2")  # not a candidate: its precondition is false
-    scores = saycan_scores([C, place], 5, [A, C], lambda a: True)
-    assert _score_of(scores, C).llm == pytest.approx(0.2)
+    scores = saycan_scores([C, place], 5, [A, C], lambda a: True, uniform_weight=0.0)
+    # one usable vote of five: C gets 0.2 before renormalising the missing mass away
+    assert _score_of(scores, C).votes == 1 and _score_of(scores, C).llm == pytest.approx(1.0)
+    assert _score_of(scores, A).llm == 0.0
     assert {s.action for s in scores} == {A, C}
+    mixed = saycan_scores([C, place], 5, [A, C], lambda a: True)
+    # (0.5·0.2 + 0.25, 0.25) = (0.35, 0.25), renormalised over 0.6
+    assert _score_of(mixed, C).llm == pytest.approx(0.35 / 0.6)
 
 
 def test_precondition_violating_and_occluded_actions_get_zero_and_may_leave_nothing() -> None:
@@ -125,12 +140,31 @@ def _history_length(request: LLMRequest) -> int:
     return len(re.findall(r"^\d+\. \(", section, flags=re.MULTILINE))
 
 
-def test_all_zero_scores_are_asked_again_then_end_as_no_progress(problems) -> None:
+def test_replies_naming_only_an_occluded_action_still_let_an_affordable_one_run(problems) -> None:
     # every reply starts with picking the salter, which the door and bottles occlude
     backend = ScriptedReplyBackendDouble(
         queue=[[plan_reply([Pick("salter"), Open("kitchen_door")])]]
     )
-    result = EpSayCanPlanner(backend).solve(problems["P2"], seed=0, time_budget_s=120.0)
+    planner = EpSayCanPlanner(backend)
+    episode = Episode.begin(problems["P2"], 120.0)
+    tally = DecisionTally()
+    domain = KappaDomainDouble([D, A, C], stuck=set())
+    chosen = planner.decide(
+        domain, episode, _SALTER_OCCLUDED, 0, 0, np.random.default_rng(0), tally
+    )  # type: ignore[arg-type]
+    assert chosen is not None and chosen.discrete in {A, C}
+    assert tally.queries == 1 and tally.zero_score_queries == 0
+    assert tally.decisions[0]["voted"] == [
+        [["pick", "salter"], 5, pytest.approx(0.5 + 0.5 / 3), 0.0]
+    ]
+
+
+def test_votes_only_asks_again_then_ends_as_no_progress(problems) -> None:
+    backend = ScriptedReplyBackendDouble(
+        queue=[[plan_reply([Pick("salter"), Open("kitchen_door")])]]
+    )
+    planner = EpSayCanPlanner(backend, settings=SayCanSettings(uniform_weight=0.0))
+    result = planner.solve(problems["P2"], seed=0, time_budget_s=120.0)
     assert result.termination == "no_progress" and not result.success and result.plan == ()
     assert result.counters.llm_calls == 3 and len(backend.requests) == 3
     seeds = [r.seed for r in backend.requests]
@@ -139,6 +173,22 @@ def test_all_zero_scores_are_asked_again_then_end_as_no_progress(problems) -> No
     decisions = result.details["decisions"]
     assert [d["chosen"] for d in decisions] == [None, None, None]
     assert decisions[0]["first_actions"] == [["pick", "salter"]] * 5
+
+
+def test_with_nothing_affordable_left_the_trial_ends_without_asking_again(problems) -> None:
+    backend = ScriptedReplyBackendDouble(queue=[[plan_reply([A])]])
+    domain = KappaDomainDouble([A, D], stuck={A})  # A has no κ, D is occluded
+    planner = EpSayCanPlanner(backend)
+    tally = DecisionTally()
+    episode = Episode.begin(problems["P2"], 60.0)
+    chosen = planner.decide(
+        domain, episode, _SALTER_OCCLUDED, 0, 0, np.random.default_rng(0), tally
+    )  # type: ignore[arg-type]
+    assert chosen is None and len(backend.requests) == 1
+    assert domain.draws == [A, A, A] and tally.zero_score_queries == 1
+
+
+_SALTER_OCCLUDED = [GroundLiteral("PickOccludedBy", ("salter", "bottle2"))]
 
 
 def test_saycan_solves_p2_when_the_replies_name_the_right_next_action(problems) -> None:
