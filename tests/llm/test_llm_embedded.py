@@ -142,3 +142,24 @@ def test_a_deadline_stops_sampling_and_cut_replies_are_not_cached(
     roomy = dataclasses.replace(request, deadline=time.monotonic() + 600)
     assert cached.complete(roomy).texts == backend.complete(request).texts
     assert len(cache) == 3
+
+
+@pytest.mark.slow
+def test_whole_chunks_shared_with_the_last_prompt_are_reused_and_replies_do_not_change() -> None:
+    # about 1,400 prompt tokens, the first 1,024 or more shared: two whole 512-token chunks
+    shared = "\n".join(f"('AtPosition', 'can{i}', 'on', 'counter{i % 7}')" for i in range(90))
+    first = LLMRequest(system="Answer briefly.", user=shared + "\nName a fruit.", max_tokens=8)
+    second = LLMRequest(
+        system="Answer briefly.", user=shared + "\nName a colour.", n=2, max_tokens=12, seed=7
+    )
+    warm = EmbeddedBackend(n_ctx=2048)
+    warm.complete(first)
+    assert warm.prompt_tokens_reused == 0
+    reused = warm.complete(second)
+    kept = warm.prompt_tokens_reused
+    assert kept >= 1024 and kept % 512 == 0
+    fresh = EmbeddedBackend(n_ctx=2048).complete(second)
+    assert reused.texts == fresh.texts
+    # a prompt sharing less than one whole chunk is evaluated from the start
+    warm.complete(LLMRequest(system="Other.", user="Name a tree.", max_tokens=4))
+    assert warm.prompt_tokens_reused == kept
