@@ -110,8 +110,8 @@ class LeafValue:
 class ValueFunction(Protocol):
     """V(s) for a new leaf at episode depth ``depth`` (steps since the episode start).
 
-    The MDP and the generator are passed in rather than stored, so a value function is plain
-    settings (frozen, shareable) and its ψ and T calls go through the search's counting
+    The MDP and the generator are passed in rather than stored, so a value function can be
+    plain settings (frozen, shareable) and its ψ and T calls go through the search's counting
     wrapper. ``arrival`` is the edge the search took into the leaf (None when there is none),
     so an estimate that is costly from scratch can be derived from the parent's instead (Hcount
     brings the parent's predicates forward). A deterministic estimate ``(state, depth) ->
