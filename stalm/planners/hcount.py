@@ -90,7 +90,7 @@ class HcountLeafValue:
     A leaf's predicates are derived from its parent's with :meth:`PredicateEngine.update`
     along the edge the search took into it (equal to computing them from scratch, and several
     times cheaper); only a state reached by no known edge, such as a search root, is computed
-    from scratch. Predicates and values are kept per state for the whole trial, since the
+    from scratch. Predicates are kept per state for the whole trial, since the
     trees of later real steps revisit the states of earlier ones. Deterministic: the value of a
     state never depends on the generator.
     """
@@ -99,7 +99,6 @@ class HcountLeafValue:
         self.problem = problem
         self.engine = engine
         self._predicates: dict[State, PredicateCache] = {}
-        self._values: dict[State, float] = {}
         self.computed_from_scratch = 0
         self.brought_forward = 0
 
@@ -111,10 +110,8 @@ class HcountLeafValue:
         rng: np.random.Generator,
         arrival: Edge | None = None,
     ) -> LeafValue:
-        if state not in self._values:
-            literals = self.predicates(state, arrival).literals
-            self._values[state] = hcount_value(self.problem, literals, state)
-        return LeafValue(self._values[state])
+        literals = self.predicates(state, arrival).literals
+        return LeafValue(hcount_value(self.problem, literals, state))
 
     def predicates(self, state: State, arrival: Edge | None = None) -> PredicateCache:
         """The predicates of ``state``, from its parent's if ``arrival`` leads into it."""
