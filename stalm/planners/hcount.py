@@ -9,8 +9,13 @@ UCT-with-Hcount's time-outs. :class:`HcountLeafValue` pays it the way STaLM pays
 queries (Appendix A): each leaf's predicates are brought forward from its parent's through the
 action between them, not computed from scratch.
 
-``o_target`` is the object the action into the node moved; a State records only what is in
-the hand, so the held object stands in for it (None after a PLACE).
+``o_target`` is the object of the action that led into the node (its arrival edge: PICK(o)
+and PLACE(o, ...) act on o; OPEN on a door, no object), and whether it is "in O_InGoal" is
+judged on the state that action acted on. So picking an object up that already sat at its
+goal costs +1 (the penalty that traps UCT-with-Hcount in P5/P6, §4.3), and picking or placing
+a goal object that was not at its goal earns -1. A node reached by no known edge (a search
+root) has no o_target and neither term applies. (The held object cannot stand in for
+o_target: it has no pose, so it is never "in goal" and the +1 would never fire.)
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from stalm.domain.actions import Open
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.predicates.literals import GroundLiteral
 from stalm.search import LeafValue
@@ -65,23 +71,42 @@ def occluder_set(problem: Problem, literals: Iterable[GroundLiteral], state: Sta
     return occluders
 
 
-def hcount(problem: Problem, literals: Iterable[GroundLiteral], state: State) -> int:
-    """Appendix C's cost-to-go estimate for ``state`` with predicates ``literals``."""
-    goal_objects = {g.obj for g in problem.goal}
+def target_term(problem: Problem, arrival: Edge | None) -> int:
+    """Appendix C's o_target terms: +1 if o_target was in O_InGoal, -1 if it was a goal object
+    not in O_InGoal, judged on the state the arrival action acted on; 0 without an arrival or
+    when the action moved no object (OPEN)."""
+    if arrival is None or isinstance(arrival.action, Open):
+        return 0
+    target = arrival.action.obj
+    if target in objects_in_goal(problem, arrival.state):
+        return 1
+    if target in {g.obj for g in problem.goal}:
+        return -1
+    return 0
+
+
+def hcount(
+    problem: Problem,
+    literals: Iterable[GroundLiteral],
+    state: State,
+    arrival: Edge | None = None,
+) -> int:
+    """Appendix C's cost-to-go estimate for ``state`` with predicates ``literals``, reached by
+    ``arrival`` (the edge whose action names o_target; None: no o_target)."""
     done = objects_in_goal(problem, state)
-    target = state.held.obj if state.held is not None else None
     value = len(occluder_set(problem, literals, state)) - len(done)
-    if target is not None and target in done:
-        value += 1
-    if target is not None and target not in done and target in goal_objects:
-        value -= 1
-    return value
+    return value + target_term(problem, arrival)
 
 
-def hcount_value(problem: Problem, literals: Iterable[GroundLiteral], state: State) -> float:
+def hcount_value(
+    problem: Problem,
+    literals: Iterable[GroundLiteral],
+    state: State,
+    arrival: Edge | None = None,
+) -> float:
     """Q = 3 n(O_goal) - 3 Hcount (Appendix C)."""
     goal_objects = {g.obj for g in problem.goal}
-    return 3.0 * len(goal_objects) - 3.0 * hcount(problem, literals, state)
+    return 3.0 * len(goal_objects) - 3.0 * hcount(problem, literals, state, arrival)
 
 
 class HcountLeafValue:
@@ -91,8 +116,9 @@ class HcountLeafValue:
     along the edge the search took into it (equal to computing them from scratch, and several
     times cheaper); only a state reached by no known edge, such as a search root, is computed
     from scratch. Predicates are kept per state for the whole trial, since the
-    trees of later real steps revisit the states of earlier ones. Deterministic: the value of a
-    state never depends on the generator.
+    trees of later real steps revisit the states of earlier ones. The value also reads
+    ``arrival`` for o_target (:func:`target_term`). Deterministic: it never depends on the
+    generator.
     """
 
     def __init__(self, problem: Problem, engine: PredicateEngine) -> None:
@@ -111,7 +137,7 @@ class HcountLeafValue:
         arrival: Edge | None = None,
     ) -> LeafValue:
         literals = self.predicates(state, arrival).literals
-        return LeafValue(hcount_value(self.problem, literals, state))
+        return LeafValue(hcount_value(self.problem, literals, state, arrival))
 
     def predicates(self, state: State, arrival: Edge | None = None) -> PredicateCache:
         """The predicates of ``state``, from its parent's if ``arrival`` leads into it."""

@@ -5,19 +5,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stalm.domain.actions import Open, Pick
+from stalm.domain.actions import Open, Pick, Place
+from stalm.domain.outcome import Infeasibility
 from stalm.planners.hcount import (
     HcountLeafValue,
     hcount,
     hcount_value,
     objects_in_goal,
     occluder_set,
+    target_term,
 )
 from stalm.planners.stalm import StalmPlanner, StalmSettings
 from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral as L
 from stalm.search import SearchSettings
 from stalm.search.tree import Edge
+from stalm.world.state import Grasp, ObjectPose
 
 
 def test_hcount_on_hand_made_literals(problems) -> None:
@@ -122,3 +125,77 @@ def test_leaf_values_brought_forward_from_the_parent_equal_values_from_scratch(
     # asked again (as a later real step's tree would), nothing is recomputed
     assert leaf_value(None, picked2, 2, rng).value == values[picked2].value  # type: ignore[arg-type]
     assert (leaf_value.computed_from_scratch, leaf_value.brought_forward) == (1, 3)
+
+
+def _grill_picked_from_its_goal(domain, grill_on_goal):
+    """The grill picked up from where it sits at its goal: the edge and the state after."""
+    rng = np.random.default_rng(0)
+    for _ in range(6):
+        kappa, outcome = domain.sample_and_step(grill_on_goal, Pick("beef_grill"), rng)
+        if outcome.feasible:
+            return Edge(grill_on_goal, Pick("beef_grill"), kappa), outcome.state
+    raise AssertionError("the grill could not be picked")
+
+
+@pytest.mark.parametrize("name", ["P5", "P6"])
+def test_picking_the_grill_off_its_goal_costs_one(domain_factory, name) -> None:
+    """Appendix C's +1: o_target (the grill the PICK acted on) sat in its goal.
+
+    P6 starts with the grill at its goal on counter2; in P5 it is put at the front of the
+    walled counter1, its goal. The door is open in both. Worked by hand from the scenes:
+    with the grill on its goal, it alone occludes placing the other goal objects there
+    (M = {grill}) and it is the one object in goal: Hcount = 1 - 1 = 0. Holding it, nothing
+    occludes a goal object (M = {}) and no object is in goal, and o_target = grill was in goal
+    in the state the PICK acted on: Hcount = 0 - 0 + 1 = 1, so Q = 3·3 - 3·1 = 6, below the
+    Q = 9 of the state before: Hcount penalises taking an object off its goal, the local
+    optimum of §4.3. (The held grill has no pose, so judged on the leaf it was never in goal:
+    the old code gave -1 here, Q = 12, a reward for the move.)
+    """
+    domain = domain_factory(name)
+    problem = domain.problem
+    leaf_value = HcountLeafValue(problem, PredicateEngine(problem, domain.sim, domain.base_planner))
+    on_goal = problem.initial_state.with_changes(open_door="kitchen_door")
+    if name == "P5":  # counter1 is 4.9 m along +y from counter2, both facing the same way
+        grill = on_goal.pose("beef_grill")
+        on_goal = on_goal.with_changes(
+            poses={"beef_grill": ObjectPose.make(grill.x, grill.y + 4.9, grill.z, grill.yaw)}
+        )
+    edge, holding = _grill_picked_from_its_goal(domain, on_goal)
+    before = leaf_value.predicates(on_goal).literals
+    after = leaf_value.predicates(holding, edge).literals
+
+    assert objects_in_goal(problem, on_goal) == {"beef_grill"}
+    assert occluder_set(problem, before, on_goal) == {"beef_grill"}
+    assert hcount(problem, before, on_goal) == 1 - 1
+    assert target_term(problem, edge) == 1
+    assert objects_in_goal(problem, holding) == set()
+    assert occluder_set(problem, after, holding) == set()
+    assert hcount(problem, after, holding, edge) == 0 - 0 + 1
+    assert leaf_value(None, holding, 1, np.random.default_rng(0), arrival=edge).value == 6.0  # type: ignore[arg-type]
+    assert hcount_value(problem, before, on_goal) == 9.0
+
+
+def test_the_o_target_terms_of_each_kind_of_arrival(problems) -> None:
+    """+1 for an object in goal, -1 for a goal object not in goal, 0 otherwise, judged on the
+    state the action acted on (P6: the grill is in goal, coke and wine are goal objects)."""
+    p6 = problems["P6"]
+    start = p6.initial_state
+    kappa = Infeasibility("precondition", "unused by the o_target terms")
+
+    def term(action, state=start) -> int:
+        return target_term(p6, Edge(state, action, kappa))
+
+    assert term(Pick("beef_grill")) == 1  # in goal
+    assert term(Pick("coke")) == -1  # a goal object, not in goal
+    assert term(Pick("beer")) == 0  # not a goal object
+    assert term(Open("kitchen_door")) == 0  # no object
+    assert target_term(p6, None) == 0  # a root: no o_target
+    grill = start.pose("beef_grill")
+    holding_wine = start.with_changes(
+        remove="wine", held=Grasp.make("wine", (0, 0, 0), (0, 0, 0, 1))
+    )
+    assert term(Place("wine", "on", "counter2"), holding_wine) == -1  # held: not in goal
+    moved = start.with_changes(
+        poses={"beef_grill": ObjectPose.make(grill.x, grill.y + 2.2, grill.z, grill.yaw)}
+    )
+    assert term(Pick("beef_grill"), moved) == -1  # off its goal now: a goal object to bring back
