@@ -18,6 +18,11 @@ geometry rather than on unparseable text. Two forms are built from one :class:`V
 
 Both are bounded (challenge lines, their length, plan steps) so that even a tiny model that
 would ramble forever reaches the end of the grammar and stops.
+
+The challenges section is part of the constraint only when the prompt asks for it
+(``challenges=True``, the full STaLM prompt). For Table 4's "no challenges" ablation and
+for SayCan's template, the constraint admits the plan section alone: a grammar that still
+forced the model to write challenges would measure the full prompt under another name.
 """
 
 from __future__ import annotations
@@ -121,12 +126,15 @@ def _gbnf_alternatives(words: tuple[str, ...]) -> str:
     return " | ".join(_gbnf_literal(f"'{word}'") for word in words)
 
 
-def build_gbnf(vocabulary: Vocabulary, limits: ConstraintLimits | None = None) -> str:
+def build_gbnf(
+    vocabulary: Vocabulary, limits: ConstraintLimits | None = None, *, challenges: bool = True
+) -> str:
     """A GBNF grammar admitting only the reply template with this problem's names.
 
     PLACE relative to an object never names the held object as its own reference, and
     PLACE ``on`` takes a region, so every step the grammar admits is a grounded action of
-    :meth:`Vocabulary.all_discrete_actions`.
+    :meth:`Vocabulary.all_discrete_actions`. With ``challenges=False`` the reply starts with
+    the plan header: no challenges section is admitted.
     """
     limits = limits or ConstraintLimits()
     _check_vocabulary(vocabulary)
@@ -137,14 +145,22 @@ def build_gbnf(vocabulary: Vocabulary, limits: ConstraintLimits | None = None) -
     if vocabulary.doors:
         step_kinds.append("open")
 
-    lines = [
-        "root ::= challenges-head challenge-line"
-        f"{{1,{limits.max_challenge_lines}}} plan-head "
-        f'"plan = [" step (step-sep step){{0,{limits.max_steps - 1}}} "]"',
-        f"challenges-head ::= {_gbnf_literal(CHALLENGES_HEADER + chr(10))}",
-        f'challenge-line ::= [1-9] ". " text-char{{1,{limits.max_line_chars}}} "\\n"',
-        f"text-char ::= {_GBNF_TEXT_CHAR}",
-        f"plan-head ::= {_gbnf_literal(chr(10) + PLAN_HEADER + chr(10))}",
+    plan = f'"plan = [" step (step-sep step){{0,{limits.max_steps - 1}}} "]"'
+    if challenges:
+        lines = [
+            "root ::= challenges-head challenge-line"
+            f"{{1,{limits.max_challenge_lines}}} plan-head {plan}",
+            f"challenges-head ::= {_gbnf_literal(CHALLENGES_HEADER + chr(10))}",
+            f'challenge-line ::= [1-9] ". " text-char{{1,{limits.max_line_chars}}} "\\n"',
+            f"text-char ::= {_GBNF_TEXT_CHAR}",
+            f"plan-head ::= {_gbnf_literal(chr(10) + PLAN_HEADER + chr(10))}",
+        ]
+    else:
+        lines = [
+            f"root ::= plan-head {plan}",
+            f"plan-head ::= {_gbnf_literal(PLAN_HEADER + chr(10))}",
+        ]
+    lines += [
         'step-sep ::= "," [ \\n]?',
         "step ::= " + " | ".join(step_kinds),
         'pick ::= "(\'pick\', " movable ")"',
@@ -183,9 +199,10 @@ def _tuple_schema(*positions: dict[str, Any]) -> dict[str, Any]:
 
 
 def build_json_schema(
-    vocabulary: Vocabulary, limits: ConstraintLimits | None = None
+    vocabulary: Vocabulary, limits: ConstraintLimits | None = None, *, challenges: bool = True
 ) -> dict[str, Any]:
-    """A JSON schema ``{"challenges": str, "plan": [[op, args...], ...]}`` with enums.
+    """A JSON schema ``{"challenges": str, "plan": [[op, args...], ...]}`` with enums
+    (``{"plan": ...}`` alone with ``challenges=False``).
 
     Each step is a JSON array in the order of the text form's tuples (``["place", "coke",
     "on", "counter1"]``), described with ``prefixItems`` (JSON Schema 2020-12), which vLLM,
@@ -219,32 +236,36 @@ def build_json_schema(
             )
     if vocabulary.doors:
         steps.append(_tuple_schema({"const": "open"}, {"enum": list(vocabulary.doors)}))
+    properties: dict[str, Any] = {}
+    if challenges:
+        properties["challenges"] = {"type": "string", "maxLength": limits.max_challenge_chars}
+    properties["plan"] = {
+        "type": "array",
+        "minItems": 1,
+        "maxItems": limits.max_steps,
+        "items": {"anyOf": steps},
+    }
     return {
         "title": CONSTRAINT_NAME,
         "type": "object",
-        "properties": {
-            "challenges": {"type": "string", "maxLength": limits.max_challenge_chars},
-            "plan": {
-                "type": "array",
-                "minItems": 1,
-                "maxItems": limits.max_steps,
-                "items": {"anyOf": steps},
-            },
-        },
-        "required": ["challenges", "plan"],
+        "properties": properties,
+        "required": list(properties),
         "additionalProperties": False,
     }
 
 
 def build_constraint(
-    vocabulary: Vocabulary, limits: ConstraintLimits | None = None
+    vocabulary: Vocabulary, limits: ConstraintLimits | None = None, *, challenges: bool = True
 ) -> OutputConstraint:
-    """Both forms of the reply constraint for one problem, ready to put in an LLMRequest."""
+    """Both forms of the reply constraint for one problem, ready to put in an LLMRequest.
+
+    ``challenges`` must match the prompt (:attr:`stalm.llm.prompt.Prompt.asks_challenges`).
+    """
     limits = limits or ConstraintLimits()
-    schema = build_json_schema(vocabulary, limits)
+    schema = build_json_schema(vocabulary, limits, challenges=challenges)
     return OutputConstraint(
         name=CONSTRAINT_NAME,
-        gbnf=build_gbnf(vocabulary, limits),
+        gbnf=build_gbnf(vocabulary, limits, challenges=challenges),
         json_schema_text=json.dumps(schema, sort_keys=True, separators=(",", ":")),
     )
 
@@ -263,10 +284,10 @@ def json_reply_to_plan_text(json_text: str) -> str:
         ) from error
     if not isinstance(data, dict):
         raise StalmError("structured reply must be a JSON object with 'challenges' and 'plan'")
-    challenges = data.get("challenges", "")
+    challenges = data.get("challenges")
     if isinstance(challenges, list):
         challenges = "\n".join(str(line) for line in challenges)
-    if not isinstance(challenges, str):
+    if challenges is not None and not isinstance(challenges, str):
         raise StalmError("structured reply field 'challenges' must be a string")
     plan = data.get("plan")
     if not isinstance(plan, list):
@@ -278,9 +299,10 @@ def json_reply_to_plan_text(json_text: str) -> str:
                 f"structured reply field 'plan[{index}]' must be a list of strings, got {step!r}"
             )
         steps.append("(" + ", ".join(repr(arg) for arg in step) + ")")
-    return (
-        f"{CHALLENGES_HEADER}\n{challenges.strip()}\n\n{PLAN_HEADER}\nplan = [{', '.join(steps)}]\n"
-    )
+    plan_text = f"{PLAN_HEADER}\nplan = [{', '.join(steps)}]\n"
+    if challenges is None:  # the no-challenges form (Table 4's ablation, SayCan)
+        return plan_text
+    return f"{CHALLENGES_HEADER}\n{challenges.strip()}\n\n{plan_text}"
 
 
 __all__ = [

@@ -57,6 +57,16 @@ class Prompt:
     system: str
     user: str
 
+    @property
+    def asks_challenges(self) -> bool:
+        """Whether the reply template asks for the "Possible Challenges" section first.
+
+        Read off the system message itself, so it is right for every prompt built from it
+        (STaLM's with either ablation, the feedback prompt, SayCan's, which never asks): the
+        output constraint must demand that section exactly when the template does.
+        """
+        return _template("system_challenges") in self.system
+
     def as_transcript(self) -> str:
         """Both messages under the paper's Figure 13 headings, e.g. to show or diff a prompt."""
         return f"**System prompt**\n\n{self.system}\n\n**User prompt**\n\n{self.user}\n"

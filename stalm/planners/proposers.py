@@ -117,9 +117,12 @@ def ask_for_task_plans(
     output constraint, so no method is better or worse merely for parsing differently. Every
     reply is kept: a readable one as a plan (its valid prefix), an unreadable one as its reason
     in ``unparseable``. Replies cut off by ``deadline`` are dropped: they are not the model's
-    answer.
+    answer. The output constraint follows the prompt: it demands the challenges section only
+    when the prompt asks for it (Table 4's ablations).
     """
-    constraint = build_constraint(vocabulary) if constrained else None
+    constraint = (
+        build_constraint(vocabulary, challenges=prompt.asks_challenges) if constrained else None
+    )
     request = LLMRequest(
         system=prompt.system,
         user=prompt.user,

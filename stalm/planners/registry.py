@@ -97,6 +97,10 @@ def _stalm_like(name: str) -> Builder:
             search=SearchSettings(budget=budget),
             use_tree=name != "stalm-no-uct",
             leaf_value="hcount" if name == "uct-hcount" else "rollout",
+            # the symbolic proposer plans with occlusions whatever the prompt options say
+            occlusion_predicates=(
+                config.proposer == "symbolic" or config.prompt.occlusion_predicates
+            ),
         )
         return StalmPlanner(proposer, settings, progress=progress)
 

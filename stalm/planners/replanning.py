@@ -84,7 +84,9 @@ class IterativeReplanningPlanner:
 
     def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
         problem = episode.problem
-        engine = PredicateEngine(problem, domain.sim, domain.base_planner)
+        engine = PredicateEngine(
+            problem, domain.sim, domain.base_planner, occlusion=self.options.occlusion_predicates
+        )
         vocabulary = Vocabulary.from_problem(problem)
         rng = np.random.default_rng(seed)
         memory: list[FailedPlan] = []

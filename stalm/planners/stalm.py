@@ -46,6 +46,14 @@ class StalmSettings:
     """False gives 'STaLM w/o UCT' (Table 3): no simulations after Concretize."""
     leaf_value: str = "rollout"
     """'rollout' (STaLM, UCT) or 'hcount' (UCT-with-Hcount, Appendix C)."""
+    occlusion_predicates: bool = True
+    """Compute PickOccludedBy/PlaceOccludedBy for the prompt. False for Table 4's arms whose
+    prompt does not show them, so those arms do not pay for motion planning they never use."""
+
+    @property
+    def needs_occlusion(self) -> bool:
+        """Whether the predicate engine must plan occlusions: for the prompt, or for Hcount."""
+        return self.occlusion_predicates or self.leaf_value == "hcount"
 
 
 @dataclass
@@ -78,7 +86,9 @@ class StalmPlanner:
 
     def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
         problem = episode.problem
-        engine = PredicateEngine(problem, domain.sim, domain.base_planner)
+        engine = PredicateEngine(
+            problem, domain.sim, domain.base_planner, occlusion=self.settings.needs_occlusion
+        )
         rng = np.random.default_rng(seed)
         policies = self._policies(problem, engine)
         horizon = problem.horizon

@@ -22,6 +22,11 @@ pose are swept again, against it alone. :meth:`PredicateEngine.update` equals
 Base paths start from the problem's initial robot pose, not the robot's current one, so the
 literals do not depend on where the robot last stood: the robot changes rooms only through an
 open door, and an open door occludes nothing.
+
+An engine built with ``occlusion=False`` computes only the symbolic literals (HandAvailable,
+RobotHolding, IsClosed, AtPosition) and plans no motion at all: what a prompt without
+occlusion predicates (Table 4's ablation) shows, at what that prompt really costs. The search
+never reads occlusion literals, so nothing else needs them.
 """
 
 from __future__ import annotations
@@ -121,7 +126,12 @@ def _stable_seed(*parts: object) -> int:
 
 
 class PredicateEngine:
-    """Computes and updates the literals of states of one problem."""
+    """Computes and updates the literals of states of one problem.
+
+    ``occlusion`` says whether PickOccludedBy/PlaceOccludedBy are computed (the motion
+    planning); without them only the symbolic literals are, for prompts that do not show
+    occlusions.
+    """
 
     def __init__(
         self,
@@ -129,7 +139,10 @@ class PredicateEngine:
         sim: Sim,
         base_planner: BasePlanner,
         settings: PredicateSettings | None = None,
+        *,
+        occlusion: bool = True,
     ) -> None:
+        self.occlusion = occlusion
         self.problem = problem
         self.spec = problem.spec
         self.sim = sim
@@ -147,6 +160,8 @@ class PredicateEngine:
     # ------------------------------------------------------------------ public
     def compute(self, state: State) -> PredicateCache:
         """All literals of ``state`` from scratch."""
+        if not self.occlusion:
+            return PredicateCache(state=state, literals=self._symbolic(state))
         cache = PredicateCache(state=state, literals=frozenset())
         self._prepare_world(state)
         for region in self.spec.regions:
@@ -162,6 +177,8 @@ class PredicateEngine:
 
     def update(self, cache: PredicateCache, action: DiscreteAction, state: State) -> PredicateCache:
         """The literals of ``state``, reached from ``cache.state`` by the feasible ``action``."""
+        if not self.occlusion:
+            return PredicateCache(state=state, literals=self._symbolic(state))
         new = PredicateCache(
             state=state,
             literals=frozenset(),
@@ -444,9 +461,14 @@ class PredicateEngine:
                 cache.placements[(obj, region.name)] = self._placements(cache, obj, region)
 
     # ------------------------------------------------------------------ literals
-    def _derive(self, cache: PredicateCache) -> frozenset[GroundLiteral]:
-        state = cache.state
+    def _symbolic(self, state: State) -> frozenset[GroundLiteral]:
+        """The literals that need no motion planning: hand, doors, AtPosition."""
         literals: set[GroundLiteral] = set()
+        self._symbolic_into(state, literals)
+        return frozenset(literals)
+
+    def _symbolic_into(self, state: State, literals: set[GroundLiteral]) -> dict[str, str]:
+        """Add the symbolic literals of ``state``; return each resting object's region."""
         if state.held is None:
             literals.add(GroundLiteral("HandAvailable"))
         else:
@@ -467,6 +489,12 @@ class PredicateEngine:
                         self.spec.region(support), state.pose(name), state.pose(other)
                     )
                     literals.add(GroundLiteral("AtPosition", (name, direction, other)))
+        return regions_of
+
+    def _derive(self, cache: PredicateCache) -> frozenset[GroundLiteral]:
+        state = cache.state
+        literals: set[GroundLiteral] = set()
+        regions_of = self._symbolic_into(state, literals)
         obstacles = self._obstacles(state)
         cache.unreachable = set()
         for obj, record in cache.picks.items():

@@ -60,6 +60,20 @@ def test_table4_is_the_four_prompt_switch_combinations() -> None:
     assert {a.planner for a in plan.arms} == {"stalm"}
 
 
+def test_table4_arms_compute_and_constrain_only_what_their_prompt_shows() -> None:
+    from stalm.planners.registry import build_planner
+
+    plan = build_plan("table4", llms=("http://127.0.0.1:9/v1#m",))
+    for arm in plan.arms:
+        planner = build_planner(arm.planner, arm.config)
+        prompt = arm.config.prompt
+        # the predicate engine plans occlusions only for a prompt that shows them
+        assert planner.settings.occlusion_predicates is prompt.occlusion_predicates, arm.label
+        assert planner.proposer.options == prompt, arm.label
+    hcount = build_planner("uct-hcount", plan.arms[-1].config)
+    assert hcount.settings.needs_occlusion, "Hcount needs occlusions whatever the prompt"
+
+
 def test_changing_the_budget_changes_the_trial_key_but_not_the_cache_mode() -> None:
     from dataclasses import replace
 

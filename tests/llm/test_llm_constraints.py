@@ -168,3 +168,38 @@ def test_constraint_fingerprint_is_stable_and_specific(p5_vocabulary: Vocabulary
     other = build_constraint(Vocabulary(("coke",), ("counter1",), ()))
     assert other.fingerprint != first.fingerprint
     assert first.json_schema() == build_json_schema(p5_vocabulary)
+
+
+def _rules_are_defined(grammar: str) -> bool:
+    defined = set(re.findall(r"^([a-z0-9-]+) ::=", grammar, re.MULTILINE))
+    bodies = re.sub(r'"(?:[^"\\]|\\.)*"|\[[^\]]*\]', "", grammar)
+    used = set(re.findall(r"(?<![\w-])([a-z][a-z0-9-]*)(?![\w-])", bodies.replace("::=", " ")))
+    return used <= defined
+
+
+def test_without_challenges_the_grammar_starts_with_the_plan(p5_vocabulary: Vocabulary) -> None:
+    grammar = build_gbnf(p5_vocabulary, challenges=False)
+    assert CHALLENGES_HEADER not in grammar and "challenge" not in grammar
+    root = next(line for line in grammar.splitlines() if line.startswith("root ::="))
+    assert root.startswith("root ::= plan-head ")
+    assert f'plan-head ::= "{PLAN_HEADER}\\n"' in grammar
+    assert _rules_are_defined(grammar)
+    # the plan part is the same as with challenges
+    with_challenges = build_gbnf(p5_vocabulary)
+    assert grammar.split("step-sep ::=")[1] == with_challenges.split("step-sep ::=")[1]
+
+
+def test_without_challenges_the_schema_asks_for_the_plan_alone(p5_vocabulary: Vocabulary) -> None:
+    schema = build_json_schema(p5_vocabulary, challenges=False)
+    jsonschema.Draft202012Validator.check_schema(schema)
+    plan_only = jsonschema.Draft202012Validator(schema)
+    assert schema["required"] == ["plan"] and "challenges" not in schema["properties"]
+    assert plan_only.is_valid({"plan": GOOD_REPLY["plan"]})
+    assert not plan_only.is_valid(GOOD_REPLY)  # challenges are not admitted either
+    text = json_reply_to_plan_text(json.dumps({"plan": GOOD_REPLY["plan"]}))
+    assert text.startswith(PLAN_HEADER + "\nplan = [('open', 'kitchen_door'), ")
+    assert CHALLENGES_HEADER not in text
+    assert len(parse_reply(text, p5_vocabulary).plan) == 5
+    constraint = build_constraint(p5_vocabulary, challenges=False)
+    assert constraint.json_schema() == schema
+    assert constraint.fingerprint != build_constraint(p5_vocabulary).fingerprint

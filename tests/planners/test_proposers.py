@@ -4,9 +4,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import pytest
+
 from stalm.domain.actions import Pick, Place
+from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.backends.base import LLMReply, LLMRequest, LLMResponse
-from stalm.planners.proposers import LLMProposer
+from stalm.llm.constraints import CHALLENGES_HEADER, build_constraint
+from stalm.llm.prompt import PromptOptions
+from stalm.llm.saycan_prompt import saycan_prompt
+from stalm.planners.proposers import LLMProposer, ask_for_task_plans
 from stalm.predicates.literals import GroundLiteral
 
 
@@ -61,3 +67,29 @@ def test_constrained_json_replies_are_read_as_the_template(problems) -> None:
     assert proposal.plans == ((Pick("salter"),),)
     assert len(proposal.unparseable) == 1
     assert backend.requests[0].constraint is not None
+
+
+@pytest.mark.parametrize("challenges", [True, False])
+def test_the_output_constraint_follows_the_prompts_challenges_option(
+    problems, challenges: bool
+) -> None:
+    backend = CannedRepliesBackendDouble(("plan = [('pick', 'salter')]",))
+    options = PromptOptions(ask_challenges=challenges)
+    proposer = LLMProposer(backend, options, constrained=True)
+    proposer.propose(problems["P2"], problems["P2"].initial_state, [], 1, seed=0)
+    constraint = backend.requests[0].constraint
+    assert constraint is not None
+    vocabulary = Vocabulary.from_problem(problems["P2"])
+    assert constraint == build_constraint(vocabulary, challenges=challenges)
+    assert (CHALLENGES_HEADER in constraint.gbnf) is challenges
+    assert ("challenges" in constraint.json_schema()["required"]) is challenges
+
+
+def test_saycan_prompt_never_asks_for_challenges_nor_does_its_constraint(problems) -> None:
+    prompt = saycan_prompt(problems["P2"], [])
+    assert not prompt.asks_challenges
+    backend = CannedRepliesBackendDouble(("plan = [('pick', 'salter')]",))
+    vocabulary = Vocabulary.from_problem(problems["P2"])
+    ask_for_task_plans(backend, vocabulary, prompt, 1, 0, constrained=True)
+    constraint = backend.requests[0].constraint
+    assert constraint is not None and CHALLENGES_HEADER not in constraint.gbnf

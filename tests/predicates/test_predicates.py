@@ -8,6 +8,7 @@ import pytest
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.mdp import Domain
 from stalm.predicates.engine import PredicateEngine
+from stalm.predicates.literals import OCCLUSION_PREDICATES
 from stalm.predicates.literals import GroundLiteral as L
 from stalm.world.state import Grasp, ObjectPose, State
 
@@ -130,3 +131,21 @@ def test_cached_update_after_pick_place_open_equals_from_scratch(p2) -> None:
         cache = engine.update(cache, action, outcome.state)
         state = outcome.state
         assert cache.literals == engine.compute(state).literals
+
+
+def test_without_occlusion_only_the_symbolic_literals_are_computed_and_no_motion(p2) -> None:
+    domain, full = p2
+    engine = PredicateEngine(domain.problem, domain.sim, domain.base_planner, occlusion=False)
+    state = domain.problem.initial_state
+    expected = frozenset(
+        lit for lit in full.compute(state).literals if lit.name not in OCCLUSION_PREDICATES
+    )
+    checks = domain.sim.collision_checks
+    cache = engine.compute(state)
+    assert cache.literals == expected and L("IsClosed", ("kitchen_door",)) in cache.literals
+    assert domain.sim.collision_checks == checks, "no motion was planned or swept"
+    assert not cache.base and not cache.picks and cache.swept_motions == 0
+    opened_state = state.with_changes(open_door="kitchen_door")
+    opened = engine.update(cache, Open("kitchen_door"), opened_state)
+    assert opened.literals == expected - {L("IsClosed", ("kitchen_door",))}
+    assert domain.sim.collision_checks == checks
