@@ -16,8 +16,10 @@ Decisions (each is a policy the planner relies on, so it is written down here):
 * **Where the list ends.** At its ``]``; or after the last step if a ``#`` comment after it
   holds a ``]`` (Figures 8, 10-12); or at a closing code fence. A list followed by prose
   without any ``]`` is read up to the prose and the reply gets a ``reason``. A reply that ends
-  inside the list was cut off (e.g. by ``max_tokens``): its plan is empty, because a plan the
-  model did not finish is not the plan it meant; its steps are still reported.
+  inside the list was cut off (e.g. by ``max_tokens``): its plan is the complete steps before
+  the cut (a step cut in the middle is dropped), as the authors' parser kept every complete
+  parenthesised group, and the reply is marked ``truncated`` with a ``reason``, so a caller
+  can tell the model's finished plan from the start of an unfinished one.
 * **Near misses** are normalised and each fix is noted on the step: case, spaces, hyphens and
   underscores are ignored when matching names (``'left _of'``, ``'Beef Grill'``,
   ``'leftof'``); a bare direction means the relation (``'left'`` -> ``left_of``, ``'in front
@@ -125,15 +127,18 @@ class ParsedStep:
 class ParsedReply:
     """The plan read from one reply, with every step and error, and why it is not clean.
 
-    ``plan`` holds the valid prefix of the steps (empty for garbage, empty or cut-off
-    replies). ``reason`` is None for a cleanly parsed reply and otherwise one sentence saying
-    what went wrong first.
+    ``plan`` holds the valid prefix of the steps (empty for garbage or empty replies; for a
+    reply cut off inside the list, the complete steps before the cut). ``reason`` is None for a
+    cleanly parsed reply and otherwise one sentence saying what went wrong first.
+    ``truncated`` is true when the reply ends inside the plan list: the model did not finish
+    writing its plan, so ``plan`` is only its beginning.
     """
 
     plan: tuple[DiscreteAction, ...]
     steps: tuple[ParsedStep, ...]
     errors: tuple[StepError, ...]
     reason: str | None
+    truncated: bool = False
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-able dict: plan as lists of strings, steps, errors (index, raw, message)."""
@@ -142,6 +147,7 @@ class ParsedReply:
             "steps": [step.to_json() for step in self.steps],
             "errors": [error.to_json() for error in self.errors],
             "reason": self.reason,
+            "truncated": self.truncated,
         }
 
 
@@ -497,7 +503,11 @@ def parse_reply(text: str, vocabulary: Vocabulary) -> ParsedReply:
     steps = tuple(interpreter.step(index, raw) for index, raw in enumerate(chosen.steps))
     errors = tuple(step.error for step in steps if step.error is not None)
     if chosen.end == "eof":
-        return ParsedReply((), steps, errors, "the reply ends inside the plan list (cut off?)")
+        prefix = _valid_prefix(steps)
+        cut = "the reply ends inside the plan list (cut off?)"
+        if prefix:
+            cut += f"; kept its first {len(prefix)} complete step(s)"
+        return ParsedReply(prefix, steps, errors, cut, truncated=True)
     if not steps:
         empty = "the plan list is empty" if chosen.end != "text" else "the plan list has no steps"
         return ParsedReply((), steps, errors, empty)

@@ -31,7 +31,13 @@ MAX_REPLY_TOKENS = 500
 
 @dataclass(frozen=True)
 class Proposal:
-    """A batch of task plans, the replies they came from, and what asking cost."""
+    """A batch of task plans, the replies they came from, and what asking cost.
+
+    ``truncated[i]`` says plan ``i`` is only the beginning of its reply's plan: the reply was
+    cut off inside the plan list (by ``max_tokens``) and its complete steps were kept, as the
+    authors' parser did. It is aligned with ``plans``, or empty from a proposer whose plans are
+    never cut (the symbolic one).
+    """
 
     plans: tuple[tuple[DiscreteAction, ...], ...]
     unparseable: tuple[str, ...] = ()
@@ -41,6 +47,12 @@ class Proposal:
     completion_tokens: int = 0
     seconds: float = 0.0
     from_cache: bool = False
+    truncated: tuple[bool, ...] = ()
+
+    @property
+    def truncated_plans(self) -> int:
+        """How many of ``plans`` are the kept beginning of a reply cut off inside its plan."""
+        return sum(self.truncated)
 
 
 class TaskPlanProposer(Protocol):
@@ -117,8 +129,9 @@ def ask_for_task_plans(
     output constraint, so no method is better or worse merely for parsing differently. Every
     reply is kept: a readable one as a plan (its valid prefix), an unreadable one as its reason
     in ``unparseable``. Replies cut off by ``deadline`` are dropped: they are not the model's
-    answer. The output constraint follows the prompt: it demands the challenges section only
-    when the prompt asks for it (Table 4's ablations).
+    answer. A reply cut by ``max_tokens`` inside its plan keeps its complete steps and is
+    marked in ``truncated``. The output constraint follows the prompt: it demands the
+    challenges section only when the prompt asks for it (Table 4's ablations).
     """
     constraint = (
         build_constraint(vocabulary, challenges=prompt.asks_challenges) if constrained else None
@@ -137,6 +150,7 @@ def ask_for_task_plans(
     response = backend.complete(request)
     seconds = time.perf_counter() - start
     plans: list[tuple[DiscreteAction, ...]] = []
+    truncated: list[bool] = []
     unparseable: list[str] = []
     for reply in response.replies:
         if reply.finish_reason == "deadline":
@@ -152,6 +166,7 @@ def ask_for_task_plans(
         parsed = parse_reply(text, vocabulary)
         if parsed.plan:
             plans.append(tuple(parsed.plan))
+            truncated.append(parsed.truncated)
         else:
             unparseable.append(parsed.reason or "no plan in the reply")
     return Proposal(
@@ -163,4 +178,5 @@ def ask_for_task_plans(
         completion_tokens=response.completion_tokens,
         seconds=seconds,
         from_cache=response.from_cache,
+        truncated=tuple(truncated),
     )

@@ -205,19 +205,38 @@ def test_list_followed_by_prose_without_bracket_keeps_the_plan_with_a_reason() -
     assert parsed.reason is not None and "not closed" in parsed.reason
 
 
+CUT = "the reply ends inside the plan list (cut off?)"
+
+
 @pytest.mark.parametrize(
-    "text",
+    ("text", "kept"),
     [
-        "plan = [('pick', 'coke'), ('place', 'coke', 'on', 'coun",
-        "plan = [('pick', 'coke'), ('place', 'coke', 'on', 'counter1'),",
-        "plan = [('pick', 'coke'), # pick the coke",
-        "plan = [",
+        # the step cut in the middle is dropped, the complete ones before it are kept
+        ("plan = [('pick', 'coke'), ('place', 'coke', 'on', 'coun", 1),
+        ("plan = [('pick', 'coke'), ('place', 'coke', 'on', 'counter1'", 1),
+        ("plan = [('pick', 'coke'), ('place', 'coke', 'on', 'counter1'),", 2),
+        ("plan = [('pick', 'coke'), # pick the coke", 1),
+        ("plan = [('pi", 0),
+        ("plan = [", 0),
     ],
 )
-def test_truncated_replies_give_no_plan_but_a_reason(text: str) -> None:
+def test_truncated_replies_keep_their_complete_steps_and_say_so(text: str, kept: int) -> None:
     parsed = parse(text)
-    assert parsed.plan == ()
-    assert parsed.reason == "the reply ends inside the plan list (cut off?)"
+    whole = (Pick("coke"), Place("coke", "on", "counter1"))
+    assert parsed.plan == whole[:kept]
+    assert parsed.truncated
+    assert parsed.reason == (CUT if kept == 0 else f"{CUT}; kept its first {kept} complete step(s)")
+    assert parsed.to_json()["truncated"] is True
+
+
+def test_a_real_reply_cut_mid_step_keeps_the_steps_before_the_cut() -> None:
+    # Figure 12's reply cut inside its fourth step, as max_tokens cuts a reply
+    text = reply("figure12_p6_reply.txt")
+    cut = text[: text.index("('pick', 'beef_grill')") + len("('pick', 'beef")]
+    parsed = parse_reply(cut, P6)
+    assert parsed.plan == (Open("kitchen_door"), Pick("coke"), Place("coke", "on", "counter2"))
+    assert parsed.truncated and parsed.reason is not None
+    assert not parse_reply(text, P6).truncated
 
 
 @pytest.mark.parametrize(

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
 
-from stalm.domain.actions import Pick, Place
+from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.backends.base import LLMReply, LLMRequest, LLMResponse
 from stalm.llm.constraints import CHALLENGES_HEADER, build_constraint
@@ -93,3 +94,42 @@ def test_saycan_prompt_never_asks_for_challenges_nor_does_its_constraint(problem
     ask_for_task_plans(backend, vocabulary, prompt, 1, 0, constrained=True)
     constraint = backend.requests[0].constraint
     assert constraint is not None and CHALLENGES_HEADER not in constraint.gbnf
+
+
+FIGURE12 = (
+    Path(__file__).parents[1] / "llm" / "data" / "figure12_p6_reply.txt"
+).read_text(encoding="utf-8")
+
+
+@dataclass
+class FinishReasonBackendDouble(CannedRepliesBackendDouble):
+    """Test double: canned texts, each with the finish reason a server gives it."""
+
+    finishes: tuple[str, ...] = ()
+
+    def complete(self, request: LLMRequest) -> LLMResponse:
+        self.requests.append(request)
+        replies = tuple(
+            LLMReply(self.texts[i], 10, 100, 0.01, self.finishes[i]) for i in range(request.n)
+        )
+        return LLMResponse(replies, self.name, self.model)
+
+
+def test_a_reply_cut_by_max_tokens_keeps_its_complete_steps_and_is_marked(problems) -> None:
+    # Figure 12's real reply cut inside its fifth step, as a 'length' finish cuts it
+    cut = FIGURE12[: FIGURE12.index("('place', 'beef_grill'") + len("('place', 'beef_gr")]
+    backend = FinishReasonBackendDouble((FIGURE12, cut), finishes=("stop", "length"))
+    problem = problems["P6"]
+    proposal = LLMProposer(backend).propose(problem, problem.initial_state, [], 2, seed=0)
+    whole = (
+        Open("kitchen_door"),
+        Pick("coke"),
+        Place("coke", "on", "counter2"),
+        Pick("beef_grill"),
+        Place("beef_grill", "on", "counter2"),
+        Pick("wine"),
+        Place("wine", "on", "counter2"),
+    )
+    assert proposal.plans == (whole, whole[:4])
+    assert proposal.truncated == (False, True) and proposal.truncated_plans == 1
+    assert proposal.unparseable == ()
