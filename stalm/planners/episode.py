@@ -22,6 +22,8 @@ from stalm.planners.base import Counters, PhaseTimes, PlanResult
 from stalm.planners.proposers import Proposal
 from stalm.planners.replay import replay_plan
 from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.search.concretize import ConcretizeResult
+from stalm.search.failure_kinds import figure5_kinds
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -95,6 +97,19 @@ class Episode:
         self._predicates_at = len(self.executed)
         self.clock.predicates += time.monotonic() - tick
         return self._predicates
+
+    def count_failures(self, concrete: ConcretizeResult) -> None:
+        """Add the Figure 5 kinds of the task plans Concretize could not take to the goal.
+
+        They were tried from the current state, whose predicates (the prompt's init) decide
+        whether a failed first step was occluded, i.e. a precondition violation
+        (:mod:`stalm.search.failure_kinds`).
+        """
+        if not concrete.failures:
+            return
+        if self._predicates is None or self._predicates_at != len(self.executed):
+            raise RuntimeError("count_failures needs the current state's predicates")
+        self.failures.update(figure5_kinds(concrete, self._predicates.literals))
 
     def record_query(self, proposal: Proposal) -> None:
         """Add one language-model query's calls, tokens and seconds."""

@@ -136,7 +136,7 @@ class IterativeReplanningPlanner:
                     horizon=problem.horizon,
                 )
                 episode.clock.concretize += time.monotonic() - tick
-                episode.failures.update(kind for _, kind in concrete.failures)
+                episode.count_failures(concrete)
                 if concrete.success and concrete.solution is not None:
                     to_execute = concrete.solution
                     break

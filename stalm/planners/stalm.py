@@ -126,7 +126,7 @@ class StalmPlanner:
             self._say(f"step {done}: concretizing {len(task_plans)} task plans")
             concrete = concretize(domain, state, task_plans, rng, depth0=done, horizon=horizon)
             clock.concretize += time.monotonic() - tick
-            episode.failures.update(kind for _, kind in concrete.failures)
+            episode.count_failures(concrete)
 
             to_execute: tuple[Action, ...] = ()
             if concrete.success and concrete.solution is not None:

@@ -15,6 +15,10 @@ caller could not read:
 * ``partially_achieved_goal`` — every step tried was feasible but the goal does not hold
   (also when the horizon cut the plan; see :attr:`ConcretePlan.truncated`);
 * ``unparseable`` — no plan to try (the caller passes an empty plan with its reason).
+
+These are the transition's kinds. Figure 5 counts a plan whose first step the prompt's own
+predicates call occluded as a precondition violation too; planners count failures through
+:func:`stalm.search.failure_kinds.figure5_kinds`, which applies that rule.
 """
 
 from __future__ import annotations
