@@ -15,6 +15,15 @@ machine hits there too.
 
 The store is one SQLite file in WAL mode, opened per operation with short transactions, which
 is safe for several processes (parallel trials) sharing it.
+
+Each entry also keeps ``call_seconds``: its share of the wall time of the backend call that
+produced it (the call's seconds divided by the replies it returned). A reply served from the
+cache costs almost nothing now, but an experiment must not report a trial as fast (or as
+solved within its budget) because an earlier arm happened to make the same call: planners
+count a cached reply at its stored seconds (:attr:`LLMResponse.cached_seconds`). Entries
+written before the column existed have no such share; their ``latency_s`` stands in (exact for
+the embedded model, whose latency is per sample; for a batched server call it is the whole
+call's time, an over-count).
 """
 
 from __future__ import annotations
@@ -67,9 +76,15 @@ CREATE TABLE IF NOT EXISTS replies (
     completion_tokens INTEGER NOT NULL,
     latency_s REAL NOT NULL,
     finish_reason TEXT,
-    created_at REAL NOT NULL
+    created_at REAL NOT NULL,
+    call_seconds REAL
 );
 """
+_COLUMNS_V1 = (
+    "key, backend, model, prompt_sha, temperature, max_tokens, seed, constraint_fingerprint, "
+    "sample_index, text, prompt_tokens, completion_tokens, latency_s, finish_reason, created_at"
+)
+"""The columns of a cache file written before ``call_seconds`` was added, in order."""
 
 
 def default_cache_path() -> Path:
@@ -116,7 +131,11 @@ def sample_key(backend: str, model: str, request: LLMRequest, index: int) -> str
 
 @dataclass(frozen=True)
 class CachedSample:
-    """A reply ready to store, with the request fields kept for people inspecting the file."""
+    """A reply ready to store, with the request fields kept for people inspecting the file.
+
+    ``call_seconds`` is the reply's share of the wall time of the call that produced it
+    (None when unknown: the reply's ``latency_s`` then stands in when it is read back).
+    """
 
     key: str
     backend: str
@@ -124,6 +143,15 @@ class CachedSample:
     request: LLMRequest
     index: int
     reply: LLMReply
+    call_seconds: float | None = None
+
+
+@dataclass(frozen=True)
+class StoredReply:
+    """A cached reply and the seconds producing it took (see :class:`CachedSample`)."""
+
+    reply: LLMReply
+    call_seconds: float
 
 
 class ReplyCache:
@@ -141,6 +169,7 @@ class ReplyCache:
             with self._connect() as conn:
                 conn.execute("PRAGMA journal_mode=WAL")
                 conn.executescript(_SCHEMA)
+                _add_call_seconds(conn)
                 conn.execute(
                     "INSERT OR IGNORE INTO meta(name, value) VALUES ('key_version', ?)",
                     (str(_KEY_VERSION),),
@@ -161,10 +190,14 @@ class ReplyCache:
 
     def get_many(self, keys: Iterable[str]) -> dict[str, LLMReply]:
         """The stored replies among ``keys`` (missing keys are simply absent)."""
+        return {key: stored.reply for key, stored in self.get_stored(keys).items()}
+
+    def get_stored(self, keys: Iterable[str]) -> dict[str, StoredReply]:
+        """The stored replies among ``keys`` with the seconds producing each took."""
         wanted = list(dict.fromkeys(keys))
         if not wanted:
             return {}
-        found: dict[str, LLMReply] = {}
+        found: dict[str, StoredReply] = {}
         try:
             with self._connect() as conn:
                 for start in range(0, len(wanted), 500):
@@ -172,17 +205,19 @@ class ReplyCache:
                     marks = ",".join("?" * len(chunk))
                     rows = conn.execute(
                         "SELECT key, text, prompt_tokens, completion_tokens, latency_s, "
-                        f"finish_reason FROM replies WHERE key IN ({marks})",
+                        f"finish_reason, call_seconds FROM replies WHERE key IN ({marks})",
                         chunk,
                     )
-                    for key, text, prompt_tokens, completion_tokens, latency, finish in rows:
-                        found[key] = LLMReply(
+                    for row in rows:
+                        key, text, prompt_tokens, completion_tokens, latency, finish, call = row
+                        reply = LLMReply(
                             text=text,
                             prompt_tokens=prompt_tokens,
                             completion_tokens=completion_tokens,
                             latency_s=latency,
                             finish_reason=finish,
                         )
+                        found[key] = StoredReply(reply, latency if call is None else call)
         except sqlite3.Error as error:
             raise StalmError(f"cannot read the reply cache {self._path}: {error}") from error
         return found
@@ -213,6 +248,7 @@ class ReplyCache:
                     reply.latency_s,
                     reply.finish_reason,
                     now,
+                    sample.call_seconds,
                 )
             )
         if not rows:
@@ -224,8 +260,8 @@ class ReplyCache:
                     list(prompts.values()),
                 )
                 conn.executemany(
-                    "INSERT OR REPLACE INTO replies VALUES "
-                    "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    f"INSERT OR REPLACE INTO replies ({_COLUMNS_V1}, call_seconds) VALUES "
+                    "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     rows,
                 )
         except sqlite3.Error as error:
@@ -250,7 +286,13 @@ class ReplyCache:
             with self._connect() as conn:
                 conn.execute("ATTACH DATABASE ? AS other", (str(source),))
                 conn.execute("INSERT OR IGNORE INTO prompts SELECT * FROM other.prompts")
-                conn.execute("INSERT OR IGNORE INTO replies SELECT * FROM other.replies")
+                # a file written before call_seconds existed lacks the column: it stays NULL
+                columns = _COLUMNS_V1
+                if "call_seconds" in _columns(conn, "other"):
+                    columns += ", call_seconds"
+                conn.execute(
+                    f"INSERT OR IGNORE INTO replies ({columns}) SELECT {columns} FROM other.replies"
+                )
         except sqlite3.Error as error:
             raise StalmError(f"cannot merge the reply cache {source}: {error}") from error
         return len(self) - before
@@ -278,7 +320,9 @@ class CachedBackend:
     run's first index as seed offset, so a cached batch extended later is the batch the model
     would have produced in one go (sample ``i`` always uses ``seed + i``). Replies served
     from the cache keep the token counts and latency of the call that produced them (what the
-    result would have cost); ``from_cache`` tells that nothing was spent now.
+    result would have cost); ``from_cache`` tells that nothing was spent now, and
+    ``cached_seconds`` what the served replies took when they were made. Each call made now
+    is timed, and every reply it returned is stored with its share of that time.
     """
 
     def __init__(
@@ -320,8 +364,10 @@ class CachedBackend:
             return self._inner.complete(request)
         backend, model = self._inner.name, self._inner.model
         keys = [sample_key(backend, model, request, i) for i in range(request.n)]
-        stored = self._cache.get_many(keys) if self._mode in ("use", "replay") else {}
-        replies: list[LLMReply | None] = [stored.get(key) for key in keys]
+        stored = self._cache.get_stored(keys) if self._mode in ("use", "replay") else {}
+        hits = [stored.get(key) for key in keys]
+        replies: list[LLMReply | None] = [hit.reply if hit else None for hit in hits]
+        cached_seconds = sum(hit.call_seconds for hit in hits if hit is not None)
         missing = [i for i, reply in enumerate(replies) if reply is None]
         if missing and self._mode == "replay":
             raise StalmError(
@@ -333,7 +379,9 @@ class CachedBackend:
         new_samples = []
         for start, length in _contiguous_runs(missing):
             sub_request = dataclasses.replace(request, n=length, seed=request.sample_seed(start))
+            started = time.perf_counter()
             response = self._inner.complete(sub_request)
+            share = (time.perf_counter() - started) / max(1, len(response.replies))
             cut_short = request.deadline is not None and time.monotonic() >= request.deadline
             if len(response.replies) != length and not cut_short:
                 raise StalmError(
@@ -345,7 +393,7 @@ class CachedBackend:
                 replies[index] = reply
                 if reply.finish_reason != "deadline":  # a cut reply is not the model's answer
                     new_samples.append(
-                        CachedSample(keys[index], backend, model, request, index, reply)
+                        CachedSample(keys[index], backend, model, request, index, reply, share)
                     )
             if cut_short:
                 break
@@ -355,7 +403,28 @@ class CachedBackend:
             backend=backend,
             model=model,
             from_cache=not missing,
+            cached_replies=request.n - len(missing),
+            cached_seconds=cached_seconds,
         )
+
+
+def _add_call_seconds(conn: sqlite3.Connection) -> None:
+    """Give a cache file written before ``call_seconds`` existed the column (NULL in old rows).
+
+    Another process may add it at the same moment; its "duplicate column" is no error.
+    """
+    if "call_seconds" in _columns(conn, "main"):
+        return
+    try:
+        conn.execute("ALTER TABLE replies ADD COLUMN call_seconds REAL")
+    except sqlite3.OperationalError as error:
+        if "duplicate column" not in str(error):
+            raise
+
+
+def _columns(conn: sqlite3.Connection, schema: str) -> set[str]:
+    """The column names of the ``replies`` table in the attached database ``schema``."""
+    return {row[1] for row in conn.execute(f"PRAGMA {schema}.table_info(replies)")}
 
 
 def _contiguous_runs(indices: list[int]) -> list[tuple[int, int]]:

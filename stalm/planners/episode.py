@@ -39,9 +39,38 @@ class PhaseClock:
     execution: float = 0.0
 
 
+@dataclass(frozen=True)
+class QueryRecord:
+    """One language-model query of a trial, for the result: was it answered from the reply
+    cache, how long it took now, and how long the calls that made its replies took."""
+
+    from_cache: bool
+    seconds: float
+    original_seconds: float
+    plans: int
+    truncated_plans: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "from_cache": self.from_cache,
+            "seconds": round(self.seconds, 6),
+            "original_seconds": round(self.original_seconds, 6),
+            "plans": self.plans,
+            "truncated_plans": self.truncated_plans,
+        }
+
+
 @dataclass
 class Episode:
-    """One trial in progress: where the robot is, what it did, and what that cost."""
+    """One trial in progress: where the robot is, what it did, and what that cost.
+
+    Time is charged as the trial would have taken without the reply cache: a query is counted
+    at the seconds its replies took when they were made (:attr:`Proposal.original_seconds`),
+    and the difference to what it took now moves the trial's start and deadline earlier. So a
+    trial's time, its LLM time and whether it ends within its budget do not depend on which
+    earlier run happened to fill the cache; a replayed run shows the time of the run it
+    replays.
+    """
 
     problem: Problem
     start_time: float
@@ -54,6 +83,7 @@ class Episode:
     llm_calls: int = 0
     prompt_tokens: int = 0
     completion_tokens: int = 0
+    queries: list[QueryRecord] = field(default_factory=list)
     _predicates: PredicateCache | None = None
     _predicates_at: int = 0
     """How many executed actions ``_predicates`` is up to date with."""
@@ -112,11 +142,29 @@ class Episode:
         self.failures.update(figure5_kinds(concrete, self._predicates.literals))
 
     def record_query(self, proposal: Proposal) -> None:
-        """Add one language-model query's calls, tokens and seconds."""
+        """Add one language-model query's calls, tokens and seconds (its original seconds,
+        see the class docstring), and keep its :class:`QueryRecord`."""
         self.llm_calls += proposal.calls
         self.prompt_tokens += proposal.prompt_tokens
         self.completion_tokens += proposal.completion_tokens
-        self.clock.llm += proposal.seconds
+        self.clock.llm += proposal.original_seconds
+        self.charge(proposal.original_seconds - proposal.seconds)
+        self.queries.append(
+            QueryRecord(
+                proposal.from_cache,
+                proposal.seconds,
+                proposal.original_seconds,
+                len(proposal.plans),
+                proposal.truncated_plans,
+            )
+        )
+
+    def charge(self, seconds: float) -> None:
+        """Count ``seconds`` as spent although the wall clock did not see them pass (the
+        original time of replies served from the cache): the trial started that much earlier
+        and its deadline comes that much sooner."""
+        self.start_time -= seconds
+        self.deadline -= seconds
 
     def execute(self, domain: Domain, action: Action) -> None:
         """Apply a sampled action that ψ found feasible in the current state."""
@@ -173,8 +221,23 @@ class Episode:
             ),
             termination=termination,
             llm_plan_failures=dict(self.failures),
-            details={**(details or {}), "replay_failure": replay_reason},
+            details={
+                **(details or {}),
+                "replay_failure": replay_reason,
+                **self._query_details(),
+            },
         )
+
+    def _query_details(self) -> dict[str, Any]:
+        """The per-query record and its sums (nothing for a trial that asked no model)."""
+        if not self.queries:
+            return {}
+        return {
+            "llm_queries": [query.to_json() for query in self.queries],
+            "llm_queries_from_cache": sum(query.from_cache for query in self.queries),
+            "llm_seconds_now": round(sum(query.seconds for query in self.queries), 6),
+            "truncated_plans": sum(query.truncated_plans for query in self.queries),
+        }
 
 
 def run_episode(

@@ -37,6 +37,11 @@ class Proposal:
     cut off inside the plan list (by ``max_tokens``) and its complete steps were kept, as the
     authors' parser did. It is aligned with ``plans``, or empty from a proposer whose plans are
     never cut (the symbolic one).
+
+    ``seconds`` is the wall time the query took now. ``from_cache`` is true when every reply
+    came from the reply cache; ``cached_seconds`` is what the calls that first produced the
+    cached replies took (the cache stores it), so :attr:`original_seconds` is the time of the
+    run a replay reproduces, whatever happened to be cached when it ran.
     """
 
     plans: tuple[tuple[DiscreteAction, ...], ...]
@@ -48,11 +53,19 @@ class Proposal:
     seconds: float = 0.0
     from_cache: bool = False
     truncated: tuple[bool, ...] = ()
+    cached_seconds: float = 0.0
 
     @property
     def truncated_plans(self) -> int:
         """How many of ``plans`` are the kept beginning of a reply cut off inside its plan."""
         return sum(self.truncated)
+
+    @property
+    def original_seconds(self) -> float:
+        """The seconds this query took when its replies were made: the stored seconds of cached
+        replies plus, for replies made now, the time taken now (all of it when nothing came
+        from the cache; only the stored seconds when everything did)."""
+        return self.cached_seconds + (0.0 if self.from_cache else self.seconds)
 
 
 class TaskPlanProposer(Protocol):
@@ -179,4 +192,5 @@ def ask_for_task_plans(
         seconds=seconds,
         from_cache=response.from_cache,
         truncated=tuple(truncated),
+        cached_seconds=response.cached_seconds,
     )

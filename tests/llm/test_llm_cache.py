@@ -169,3 +169,69 @@ def test_several_processes_share_one_cache_file(tmp_path: Path) -> None:
         worker.join(timeout=60)
     assert [worker.exitcode for worker in workers] == [0, 0, 0]
     assert len(ReplyCache(path)) == 3 * 40 * 2
+
+
+class SleepingFakeBackend(CountingFakeBackend):
+    """A fake backend whose every call takes ``seconds`` of wall time, as a real model does."""
+
+    def __init__(self, seconds: float) -> None:
+        super().__init__()
+        self.seconds = seconds
+
+    def complete(self, request):  # type: ignore[no-untyped-def]
+        import time
+
+        time.sleep(self.seconds)
+        return super().complete(request)
+
+
+def test_cached_replies_carry_the_seconds_their_call_took(cache: ReplyCache) -> None:
+    inner = SleepingFakeBackend(0.3)
+    backend = CachedBackend(inner, cache, mode="use")
+    first = backend.complete(REQUEST)
+    assert (first.from_cache, first.cached_replies, first.cached_seconds) == (False, 0, 0.0)
+    keys = [sample_key("fake", "fake-model", REQUEST, i) for i in range(3)]
+    stored = cache.get_stored(keys)
+    # each of the call's three replies is stored with a third of the call's time
+    shares = [stored[key].call_seconds for key in keys]
+    assert shares[0] == shares[1] == shares[2] and 0.1 <= shares[0] < 0.2
+    again = backend.complete(REQUEST)
+    assert again.from_cache and again.cached_replies == 3 and len(inner.requests) == 1
+    assert again.cached_seconds == pytest.approx(sum(shares)) and again.cached_seconds >= 0.3
+    # a batch extended later: two cached replies at their stored seconds, two made now
+    bigger = backend.complete(dataclasses.replace(REQUEST, n=5))
+    assert not bigger.from_cache and bigger.cached_replies == 3
+    assert bigger.cached_seconds == pytest.approx(sum(shares))
+
+
+OLD_SCHEMA = """
+CREATE TABLE meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE prompts (prompt_sha TEXT PRIMARY KEY, system TEXT NOT NULL, user TEXT NOT NULL);
+CREATE TABLE replies (
+    key TEXT PRIMARY KEY, backend TEXT NOT NULL, model TEXT NOT NULL, prompt_sha TEXT NOT NULL,
+    temperature REAL NOT NULL, max_tokens INTEGER NOT NULL, seed INTEGER,
+    constraint_fingerprint TEXT, sample_index INTEGER NOT NULL, text TEXT NOT NULL,
+    prompt_tokens INTEGER NOT NULL, completion_tokens INTEGER NOT NULL, latency_s REAL NOT NULL,
+    finish_reason TEXT, created_at REAL NOT NULL
+);
+INSERT INTO replies VALUES ('k1', 'fake', 'm', 'sha', 1.0, 64, 5, NULL, 0, 'old reply',
+    10, 5, 2.5, 'stop', 0.0);
+"""
+
+
+def test_a_cache_file_from_before_call_seconds_is_upgraded_and_merged(tmp_path: Path) -> None:
+    old = tmp_path / "old.sqlite"
+    with sqlite3.connect(old) as conn:
+        conn.executescript(OLD_SCHEMA)
+    copy = tmp_path / "copy.sqlite"
+    shutil.copy(old, copy)
+    # merged into a new cache as it is (the source file is not changed)
+    home = ReplyCache(tmp_path / "home.sqlite")
+    assert home.merge_from(copy) == 1
+    # opened as a cache, it gains the column; its old rows fall back to their latency
+    upgraded = ReplyCache(old)
+    for found in (upgraded.get_stored(["k1"]), home.get_stored(["k1"])):
+        assert found["k1"].reply.text == "old reply" and found["k1"].call_seconds == 2.5
+    with sqlite3.connect(copy) as conn:
+        columns = {row[1] for row in conn.execute("PRAGMA table_info(replies)")}
+    assert "call_seconds" not in columns

@@ -96,9 +96,9 @@ def test_saycan_prompt_never_asks_for_challenges_nor_does_its_constraint(problem
     assert constraint is not None and CHALLENGES_HEADER not in constraint.gbnf
 
 
-FIGURE12 = (
-    Path(__file__).parents[1] / "llm" / "data" / "figure12_p6_reply.txt"
-).read_text(encoding="utf-8")
+FIGURE12 = (Path(__file__).parents[1] / "llm" / "data" / "figure12_p6_reply.txt").read_text(
+    encoding="utf-8"
+)
 
 
 @dataclass

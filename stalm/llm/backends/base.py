@@ -79,12 +79,17 @@ class LLMResponse:
     """The replies to one :class:`LLMRequest`, in sample-index order.
 
     ``from_cache`` is true when every reply came from the reply cache (no model was run).
+    ``cached_replies`` counts the replies that came from the cache and ``cached_seconds`` is
+    what producing them took when they were made (the cache stores each reply's share of its
+    call's wall time), so a caller can count a replayed call at its original cost.
     """
 
     replies: tuple[LLMReply, ...]
     backend: str
     model: str
     from_cache: bool = False
+    cached_replies: int = 0
+    cached_seconds: float = 0.0
 
     @property
     def texts(self) -> tuple[str, ...]:
