@@ -1,14 +1,18 @@
 """LLM-MCTS (Zhao et al., 2024), the baseline of §4.2–4.3: MCTS whose prior asks a model.
 
-At every discrete node the search selects from, PUCT (:mod:`stalm.search.puct`, c = 50) weighs
-each legal action by a prior: the state's predicates are computed from scratch, the paper's
-prompt for them is sent once for 5 replies, the first action of each parsed plan that is a legal
-action counts as a vote, and votes/5 is mixed 0.5 with uniform (the authors' construction). So
-the model is called once per *new* state the search selects from — the defining cost of the
-method, which the paper blames for its time-outs; every call, its tokens and its seconds go into
-the result. Everything else is STaLM's hybrid search without warm start: UCT over κ with
-progressive widening, random rollouts at new leaves, N_budget = 35 simulations per real step,
-executed online like :class:`~stalm.planners.stalm.StalmPlanner` (bookkeeping shared through
+Every node the search creates gets a prior from the model when it is created (the expansion
+step of PUCT-style MCTS): the state's predicates are computed from scratch, the paper's prompt
+for them is sent once for 5 replies, the first action of each parsed plan that is a legal
+action counts as a vote, and votes/5 is mixed 0.5 with uniform (the authors' construction).
+PUCT (:mod:`stalm.search.puct`, c = 50) then weighs each legal action by that prior, from the
+node's first selection on. So the model is called once per *new node* -- up to one call per
+simulation, N_budget = 35 calls per real step -- the defining cost of the method, which the
+paper blames for its time-outs (§4.3); every call, its tokens and its seconds go into the
+result, with the number of calls of each real step. Priors are kept per state within one
+tree (a state reached twice in a tree is one node); each real step builds a new tree and asks
+again. Everything else is STaLM's hybrid search without warm start: UCT over κ with
+progressive widening, random rollouts at new leaves, executed online like
+:class:`~stalm.planners.stalm.StalmPlanner` (bookkeeping shared through
 :class:`~stalm.planners.episode.Episode`).
 
 Determinism: each state's request is seeded from the trial seed and a stable digest of the state
@@ -30,17 +34,21 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.mdp import Domain
 from stalm.planners.base import PlanResult
 from stalm.planners.episode import Episode, run_episode
-from stalm.planners.proposers import LLMProposer, TaskPlanProposer
+from stalm.planners.proposers import LLMProposer, Proposal, TaskPlanProposer
 from stalm.planners.registry import PlannerConfig, llm_backend, use_constraint
 from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral
-from stalm.search import SearchPolicies, SearchSettings, warm_started_uct
+from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
+from stalm.search.mdp import SearchMDP
+from stalm.search.policies import ValueFunction
 from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
+from stalm.search.tree import Edge
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
 Progress = Callable[[str], None]
 LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
+QueryHook = Callable[[Proposal], None]
 
 LLM_MCTS_BUDGET = 35
 """N_budget of LLM-MCTS in the paper's §4.2."""
@@ -63,13 +71,15 @@ class PriorStats:
     """What the LLM prior of one trial cost and how usable its replies were."""
 
     states: int = 0
-    """Distinct states given a model prior (one query each)."""
+    """Nodes given a model prior (one query each; a state is asked again in a later tree)."""
     llm_calls: int = 0
     cached_calls: int = 0
     """Queries answered entirely from the reply cache (no model run)."""
     prompt_tokens: int = 0
     completion_tokens: int = 0
     llm_seconds: float = 0.0
+    """Wall seconds the queries took now (a cached reply's original seconds are charged to
+    the trial by the episode, not here)."""
     predicate_seconds: float = 0.0
     votes: int = 0
     """Replies whose first action was a legal action at their state."""
@@ -80,18 +90,23 @@ class PriorStats:
 
 
 class LLMPrior:
-    """A :class:`~stalm.search.puct.PriorSource` that asks a task-plan proposer once per state.
+    """A :class:`~stalm.search.puct.PriorSource` that asks a task-plan proposer once per node.
 
-    The first time a state needs a prior: its literals are computed (``literals_of``), the
-    proposer is asked for ``samples`` task plans with a seed from :func:`state_request_seed`,
-    and the plans' first actions become :func:`~stalm.search.puct.vote_prior`'s votes. The
-    votes are memoised per state for the rest of the trial (tree states recur within and
-    across real steps), so a state costs one query at most.
+    The first time a state needs a prior in the current tree (when the search creates its
+    node, :class:`AskAtNewNodes`, or selects from the root): its literals are computed
+    (``literals_of``), the proposer is asked for ``samples`` task plans with a seed from
+    :func:`state_request_seed`, and the plans' first actions become
+    :func:`~stalm.search.puct.vote_prior`'s votes. The votes are kept for the rest of the
+    tree -- a state is one node of a tree, so it costs one query -- and forgotten by
+    :meth:`new_tree`: the next real step's tree asks again for every node it makes, as
+    LLM-MCTS pays a call for every new node.
 
+    ``on_query`` gets every query's :class:`Proposal` (the planner records it in the trial).
     The deadline is checked before each new query: once it has passed, the prior is uniform
-    (and not memoised) so the running simulation finishes quickly and the search returns; a
+    (and not kept) so the running simulation finishes quickly and the search returns; a
     query already under way is never cut off, so a trial can overrun its budget by at most one
-    query.
+    query. A query answered from the reply cache moves the deadline earlier by the time its
+    replies originally took, as :meth:`Episode.charge` does for the trial.
     """
 
     def __init__(
@@ -105,6 +120,7 @@ class LLMPrior:
         uniform_weight: float = 0.5,
         deadline: float | None = None,
         progress: Progress | None = None,
+        on_query: QueryHook | None = None,
     ) -> None:
         self.problem = problem
         self.proposer = proposer
@@ -114,6 +130,7 @@ class LLMPrior:
         self.uniform_weight = uniform_weight
         self.deadline = deadline
         self.progress = progress
+        self.on_query = on_query
         self._votes: dict[State, tuple[DiscreteAction, ...]] = {}
         self._stats = PriorStats()
 
@@ -121,22 +138,39 @@ class LLMPrior:
     def stats(self) -> PriorStats:
         return self._stats
 
+    def new_tree(self) -> None:
+        """Forget every prior: the next search builds a new tree, whose nodes ask anew."""
+        self._votes = {}
+
+    def prepare(self, state: State, actions: tuple[DiscreteAction, ...]) -> None:
+        """Make sure ``state`` has its prior in this tree (asking the model if it has not)."""
+        self._votes_for(state, actions)
+
     def __call__(self, state: State, actions: tuple[DiscreteAction, ...]) -> np.ndarray:
+        votes = self._votes_for(state, actions)
+        if votes is None:
+            return uniform_prior(actions)
+        return vote_prior(votes, actions, self.samples, self.uniform_weight)
+
+    def _votes_for(
+        self, state: State, actions: tuple[DiscreteAction, ...]
+    ) -> tuple[DiscreteAction, ...] | None:
+        """The state's votes, asked for now if needed; None once the deadline has passed."""
         votes = self._votes.get(state)
         if votes is None:
             if self.deadline is not None and time.monotonic() >= self.deadline:
                 self._stats = replace(
                     self._stats, deadline_fallbacks=self._stats.deadline_fallbacks + 1
                 )
-                return uniform_prior(actions)
+                return None
             votes = self._ask(state, actions)
             self._votes[state] = votes
-        return vote_prior(votes, actions, self.samples, self.uniform_weight)
+        return votes
 
     def _ask(self, state: State, actions: tuple[DiscreteAction, ...]) -> tuple[DiscreteAction, ...]:
         """Query the proposer for ``state``; the legal first actions of its plans."""
         if self.progress is not None:
-            self.progress(f"llm-mcts: prior for new state #{self._stats.states + 1}")
+            self.progress(f"llm-mcts: prior for new node #{self._stats.states + 1}")
         tick = time.monotonic()
         literals = tuple(self.literals_of(state))
         predicate_seconds = time.monotonic() - tick
@@ -146,6 +180,10 @@ class LLMPrior:
             self.problem, state, literals, self.samples, seed, deadline=self.deadline
         )
         llm_seconds = time.monotonic() - tick
+        if self.deadline is not None:
+            self.deadline -= proposal.original_seconds - proposal.seconds
+        if self.on_query is not None:
+            self.on_query(proposal)
         legal = set(actions)
         votes = tuple(plan[0] for plan in proposal.plans if plan and plan[0] in legal)
         replies = len(proposal.plans) + len(proposal.unparseable)
@@ -166,12 +204,49 @@ class LLMPrior:
 
 
 @dataclass(frozen=True)
+class AskAtNewNodes:
+    """LLM-MCTS's expansion: every node the search creates gets its prior right away.
+
+    Wraps the leaf value (a random rollout): the search calls it exactly once per new node,
+    with the node's state, so asking the prior there is one model call per new node, whether
+    or not the search later selects from that node.
+    """
+
+    prior: LLMPrior
+    value: ValueFunction
+
+    def __call__(
+        self,
+        mdp: SearchMDP,
+        state: State,
+        depth: int,
+        rng: np.random.Generator,
+        arrival: Edge | None = None,
+    ) -> LeafValue:
+        self.prior.prepare(state, mdp.legal_actions(state))
+        return self.value(mdp, state, depth, rng, arrival=arrival)
+
+
+def llm_mcts_policies(settings: SearchSettings, prior: LLMPrior) -> SearchPolicies:
+    """STaLM's search policies with PUCT over ``prior`` at discrete nodes and the prior asked
+    for at every node the search creates (:class:`AskAtNewNodes`)."""
+    plain = SearchPolicies.from_settings(settings)
+    return replace(
+        plain,
+        select_action=PUCTSelection(settings.c, prior),
+        value=AskAtNewNodes(prior, plain.value),
+    )
+
+
+@dataclass(frozen=True)
 class LlmMctsSettings:
     """§4.2: N_budget = 35 simulations per real step, c = 50, 5 samples, 0.5 uniform mixing."""
 
     search: SearchSettings = field(default_factory=lambda: SearchSettings(budget=LLM_MCTS_BUDGET))
     samples: int = 5
     uniform_weight: float = 0.5
+    occlusion_predicates: bool = True
+    """Compute occlusion literals for the prompt (False when the prompt does not show them)."""
 
 
 @dataclass
@@ -195,7 +270,12 @@ class LlmMctsPlanner:
 
     def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
         problem = episode.problem
-        engine = PredicateEngine(problem, domain.sim, domain.base_planner)
+        engine = PredicateEngine(
+            problem,
+            domain.sim,
+            domain.base_planner,
+            occlusion=self.settings.occlusion_predicates,
+        )
         rng = np.random.default_rng(seed)
         search = self.settings.search
         prior = LLMPrior(
@@ -207,15 +287,18 @@ class LlmMctsPlanner:
             uniform_weight=self.settings.uniform_weight,
             deadline=episode.deadline,
             progress=self.progress,
+            on_query=episode.record_query,
         )
-        policies = replace(
-            SearchPolicies.from_settings(search), select_action=PUCTSelection(search.c, prior)
-        )
+        policies = llm_mcts_policies(search, prior)
         search_seconds = 0.0
         simulations = replans = 0
+        calls_per_step: list[int] = []
         while (termination := episode.stop_reason(domain)) is None:
             replans += 1
             self._say(f"step {len(episode.executed)}: MCTS with an LLM prior, {search.budget} sims")
+            prior.new_tree()
+            prior.deadline = episode.deadline
+            calls_before = prior.stats.llm_calls
             tick = time.monotonic()
             result = warm_started_uct(
                 domain,
@@ -228,6 +311,7 @@ class LlmMctsPlanner:
                 policies=policies,
             )
             search_seconds += time.monotonic() - tick
+            calls_per_step.append(prior.stats.llm_calls - calls_before)
             simulations += result.counters.simulations
             if result.goal_plan:
                 to_execute = result.goal_plan
@@ -240,10 +324,6 @@ class LlmMctsPlanner:
                 self._say(f"executed {action.discrete}")
 
         stats = prior.stats
-        episode.llm_calls = stats.llm_calls
-        episode.prompt_tokens = stats.prompt_tokens
-        episode.completion_tokens = stats.completion_tokens
-        episode.clock.llm = stats.llm_seconds
         episode.clock.predicates = stats.predicate_seconds
         # the prior is asked from inside the search: its seconds are not tree-search seconds
         episode.clock.tree = max(0.0, search_seconds - stats.llm_seconds - stats.predicate_seconds)
@@ -254,7 +334,11 @@ class LlmMctsPlanner:
             termination,
             simulations=simulations,
             replans=replans,
-            details={"proposer": self.proposer.name, "prior": asdict(stats)},
+            details={
+                "proposer": self.proposer.name,
+                "prior": asdict(stats),
+                "llm_calls_per_step": calls_per_step,
+            },
         )
 
 
@@ -263,5 +347,9 @@ def build_llm_mcts(config: PlannerConfig, progress: Progress | None) -> LlmMctsP
     backend = llm_backend(config)
     proposer = LLMProposer(backend, config.prompt, constrained=use_constraint(config, backend))
     budget = config.sims if config.sims is not None else LLM_MCTS_BUDGET
-    settings = LlmMctsSettings(search=SearchSettings(budget=budget), samples=config.batch)
+    settings = LlmMctsSettings(
+        search=SearchSettings(budget=budget),
+        samples=config.batch,
+        occlusion_predicates=config.prompt.occlusion_predicates,
+    )
     return LlmMctsPlanner(proposer, settings, progress=progress)

@@ -32,14 +32,14 @@ class PriorSource(Protocol):
 
 @dataclass(frozen=True)
 class PUCTSelection:
-    """PUCT: Q + c·P(s, a)·sqrt(N_parent) / (1 + N_child), exact ties broken with ``rng``.
+    """PUCT: Q + c·P(s, a)·sqrt(N_parent + 1) / (1 + N_child), exact ties broken with ``rng``.
 
     Q is the raw mean return, as in :class:`~stalm.search.policies.UCTSelection`, hence the
     same c = 50 (the authors' value for LLM-MCTS). N_parent counts the node's visits *before*
-    the current simulation, so at a node's first selection every bonus is 0 and the choice is
-    uniformly random whatever the prior says; the prior is therefore not asked for then. This
-    matters because a prior can be expensive (one language-model call per state for LLM-MCTS):
-    it is requested only when it can change the choice.
+    the current simulation; the +1 (as UCT's ln(N_parent + 1)) keeps the bonus alive at a
+    node's first selection, so that choice already follows the prior -- with the textbook
+    sqrt(N_parent) every bonus would be 0 there and the first child tried would be a uniform
+    draw whatever the model said. The prior is asked at every selection.
     """
 
     c: float
@@ -47,8 +47,6 @@ class PUCTSelection:
 
     def scores(self, stats: ChildStats) -> np.ndarray:
         q = np.asarray(stats.q, dtype=float)
-        if stats.parent_visits == 0:
-            return q  # the bonus is c·P·0 for every child
         actions = cast(tuple[DiscreteAction, ...], stats.keys)
         prior = np.asarray(self.prior(stats.state, actions), dtype=float)
         if prior.shape != q.shape:
@@ -56,7 +54,7 @@ class PUCTSelection:
                 f"the prior has {prior.size} probabilities for {q.size} actions at {stats.state}"
             )
         n = np.asarray(stats.n, dtype=float)
-        return q + self.c * prior * math.sqrt(stats.parent_visits) / (1.0 + n)
+        return q + self.c * prior * math.sqrt(stats.parent_visits + 1) / (1.0 + n)
 
     def __call__(self, stats: ChildStats, rng: np.random.Generator) -> int:
         return argmax_random_tie(self.scores(stats), rng)

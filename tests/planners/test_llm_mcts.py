@@ -1,30 +1,34 @@
-"""LLM-MCTS: the LLM prior (votes, memoisation, seeds, deadline), PUCT with it inside the
-search, and the planner end to end on P2 with a scripted backend in place of the model."""
+"""LLM-MCTS: the LLM prior (votes, one query per node of a tree, seeds, deadline), PUCT with it
+inside the search (asked at every new node, followed from the first selection), and the planner
+end to end on the smallest case with a scripted backend in place of the model."""
 
 from __future__ import annotations
 
 import json
 import time
-from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
-from stalm.domain.actions import Pick, Place
+from stalm.domain.actions import Open, Pick, Place
 from stalm.llm.backends.base import LLMRequest, LLMResponse
 from stalm.llm.cache import CachedBackend, ReplyCache
+from stalm.llm.prompt import PromptOptions
 from stalm.planners.llm_mcts import (
     LlmMctsPlanner,
     LlmMctsSettings,
     LLMPrior,
     build_llm_mcts,
+    llm_mcts_policies,
     state_request_seed,
 )
-from stalm.planners.proposers import LLMProposer
+from stalm.planners.proposers import LLMProposer, Proposal
 from stalm.planners.registry import PlannerConfig, build_planner
 from stalm.planners.replay import replay_result_json
-from stalm.search import SearchPolicies, SearchSettings, SearchTree, warm_started_uct
-from stalm.search.puct import PUCTSelection
+from stalm.search import SearchSettings, SearchTree, warm_started_uct
+from stalm.world.problem import load_problem
 from stalm.world.state import ObjectPose
 from tests.planners.mcts_doubles import (
     PlanFollowingBackendDouble,
@@ -84,7 +88,9 @@ def test_prior_counts_first_actions_over_five_replies_and_mixes_with_uniform(
     assert stats.prompt_tokens == 100 and stats.completion_tokens == 100
 
 
-def test_prior_asks_once_per_distinct_state(problems, domain_factory) -> None:
+def test_prior_asks_once_per_distinct_state_of_a_tree_and_again_in_a_new_tree(
+    problems, domain_factory
+) -> None:
     problem = problems["P2"]
     first = problem.initial_state
     second = _moved(first, "bottle1", 0.01)
@@ -96,12 +102,16 @@ def test_prior_asks_once_per_distinct_state(problems, domain_factory) -> None:
     assert np.array_equal(prior(first, legal), a)
     assert len(backend.requests) == 1 and literals.states == [first]
     prior(second, legal)
-    prior(second, legal)
+    prior.prepare(second, legal)
     assert len(backend.requests) == 2 and literals.states == [first, second]
     seeds = [request.seed for request in backend.requests]
     assert seeds == [state_request_seed(0, first), state_request_seed(0, second)]
     assert seeds[0] != seeds[1]
     assert prior.stats.states == 2 and prior.stats.llm_calls == 2
+    # the next real step builds a new tree: its nodes are new nodes, each a new call
+    prior.new_tree()
+    assert np.array_equal(prior(first, legal), a)
+    assert len(backend.requests) == 3 and prior.stats.llm_calls == 3
 
 
 def test_request_seeds_are_stable_and_depend_on_trial_and_state(problems) -> None:
@@ -127,43 +137,60 @@ def test_after_the_deadline_the_prior_is_uniform_without_asking(problems, domain
 
 
 def _search(domain, problem, prior: LLMPrior, budget: int, seed: int = 0, tree=None):
-    """PUCT with ``prior`` from P2's initial state: the tree and the search result."""
+    """LLM-MCTS's search from P2's initial state, horizon 3 (rollouts stay short): the tree
+    and the search result."""
     root = problem.initial_state
     tree = tree or SearchTree.for_root(domain, root)
-    settings = SearchSettings(budget=budget)
-    policies = replace(
-        SearchPolicies.from_settings(settings), select_action=PUCTSelection(settings.c, prior)
-    )
+    settings = SearchSettings(budget=budget, horizon=3)
     rng = np.random.default_rng(seed)
+    policies = llm_mcts_policies(settings, prior)
     result = warm_started_uct(
         domain, root, (), rng, settings=settings, policies=policies, tree=tree
     )
     return tree, result
 
 
-def _asked_states(tree) -> set:
-    """States the search selected from after their first visit: exactly those with n >= 2
-    (a node is created as a leaf with one visit; the root's first selection has N = 0)."""
-    return {s for s in tree.states() if tree.visits(s) >= 2}
+def _prior_following_p2_plan(problem):
+    backend = PlanFollowingBackendDouble(P2_PLAN)
+    return backend, _prior(problem, backend, SymbolicLiteralsDouble(["kitchen_door"]))
 
 
-def test_search_calls_the_model_once_per_state_it_selects_from_and_more_as_it_grows(
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_first_simulation_follows_the_prior_and_its_new_node_is_asked_at_once(
+    problems, domain_factory, seed: int
+) -> None:
+    problem = problems["P2"]
+    domain = domain_factory("P2")
+    backend, prior = _prior_following_p2_plan(problem)
+    tree, result = _search(domain, problem, prior, budget=1, seed=seed)
+    assert result.counters.simulations == 1
+    visited = {str(c.action): c.n for c in tree.node(problem.initial_state).children if c.n}
+    # every reply starts with open(kitchen_door): 0.5 + 0.5/5 = 0.6 against 0.1 for the other
+    # four root actions, so the very first selection opens the door (whatever the seed)
+    assert visited == {str(Open("kitchen_door")): 1}
+    # one call per node: the root when selected from, the door-open state (if ψ found a way
+    # to open it; one try only) when the simulation created its node
+    [kappa] = tree.node(problem.initial_state).child(Open("kitchen_door")).children
+    assert len(tree) == (2 if kappa.outcome.feasible else 1)
+    assert len(backend.requests) == len(tree) == prior.stats.states
+    assert {r.seed for r in backend.requests} == {state_request_seed(0, s) for s in tree.states()}
+
+
+def test_search_asks_the_model_once_per_new_node_and_more_as_it_grows(
     problems, domain_factory
 ) -> None:
     problem = problems["P2"]
     domain = domain_factory("P2")
-    backend = PlanFollowingBackendDouble(P2_PLAN)
-    prior = _prior(problem, backend, SymbolicLiteralsDouble(["kitchen_door"]))
-    tree, _ = _search(domain, problem, prior, budget=6)
-    asked = _asked_states(tree)
-    assert len(backend.requests) == len(asked) == prior.stats.states >= 1
-    assert {r.seed for r in backend.requests} == {state_request_seed(0, s) for s in asked}
+    backend, prior = _prior_following_p2_plan(problem)
+    tree, _ = _search(domain, problem, prior, budget=4)
+    assert len(backend.requests) == len(tree) == prior.stats.states >= 2
+    assert {r.seed for r in backend.requests} == {state_request_seed(0, s) for s in tree.states()}
     calls_before = len(backend.requests)
     nodes_before = len(tree)
     # search on in the same tree with the same prior: new nodes, new calls, none repeated
-    tree, _ = _search(domain, problem, prior, budget=12, seed=1, tree=tree)
+    tree, _ = _search(domain, problem, prior, budget=4, seed=1, tree=tree)
     assert len(tree) > nodes_before
-    assert len(backend.requests) == len(_asked_states(tree)) > calls_before
+    assert len(backend.requests) == len(tree) > calls_before
     assert len({r.seed for r in backend.requests}) == len(backend.requests)
 
 
@@ -187,10 +214,10 @@ def test_same_seed_and_replies_give_the_same_search_also_replayed_from_the_cache
         SymbolicLiteralsDouble(["kitchen_door"]),
         seed=5,
     )
-    first, first_result = _search(domain, problem, first_prior, budget=12, seed=5)
+    first, first_result = _search(domain, problem, first_prior, budget=6, seed=5)
     replay = CachedBackend(ReplayOnlyBackendDouble(MIXED_REPLIES), cache, mode="replay")
     prior = _prior(problem, replay, SymbolicLiteralsDouble(["kitchen_door"]), seed=5)
-    second, second_result = _search(domain, problem, prior, budget=12, seed=5)
+    second, second_result = _search(domain, problem, prior, budget=6, seed=5)
     assert len(first_backend.requests) >= 2, "several states got a model prior"
     assert first.snapshot(str) == second.snapshot(str)
     assert first_result.best_action == second_result.best_action
@@ -204,22 +231,82 @@ def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
     assert planner.settings.samples == 5 and planner.settings.uniform_weight == 0.5
     custom = build_llm_mcts(PlannerConfig(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3), None)
     assert custom.settings.search.budget == 7 and custom.settings.samples == 3
+    assert planner.settings.occlusion_predicates
+    no_occlusion = PlannerConfig(
+        llm="http://127.0.0.1:9/v1#m", prompt=PromptOptions(occlusion_predicates=False)
+    )
+    assert not build_llm_mcts(no_occlusion, None).settings.occlusion_predicates
 
 
-@pytest.mark.slow
-def test_llm_mcts_solves_p2_when_the_replies_start_with_the_right_actions(problems) -> None:
+class CachedProposerDouble:
+    """Test double: every query 'comes from the reply cache', originally 5 s, now 0 s."""
+
+    name = "cached-double"
+
+    def propose(self, problem, state, literals, n, seed, deadline=None) -> Proposal:
+        return Proposal((), calls=1, seconds=0.0, from_cache=True, cached_seconds=5.0)
+
+
+def test_a_query_from_the_cache_is_reported_and_charged_its_original_seconds(
+    problems, domain_factory
+) -> None:
     problem = problems["P2"]
-    backend = PlanFollowingBackendDouble(P2_PLAN)
-    planner = LlmMctsPlanner(LLMProposer(backend), LlmMctsSettings())
-    result = planner.solve(problem, seed=0, time_budget_s=240.0)
+    state = problem.initial_state
+    legal = domain_factory("P2").legal_actions(state)
+    recorded: list[Proposal] = []
+    deadline = time.monotonic() + 100.0
+    prior = LLMPrior(
+        problem,
+        CachedProposerDouble(),
+        SymbolicLiteralsDouble(),
+        trial_seed=0,
+        deadline=deadline,
+        on_query=recorded.append,
+    )
+    prior.prepare(state, legal)
+    assert [p.original_seconds for p in recorded] == [5.0]
+    assert prior.deadline == pytest.approx(deadline - 5.0)
+    assert prior.stats.cached_calls == prior.stats.llm_calls == 1
+
+
+def _smallest_case(tmp_path: Path):
+    """P2's scene with the smallest goal: bottle1 (on table2, in the robot's room) on table1,
+    two actions; horizon 4 keeps rollouts short. Every root action but one is a distraction:
+    picking salter, bottle2 or bottle3, or opening the door."""
+    data = yaml.safe_load(Path(load_problem("P2").source).read_text(encoding="utf-8"))
+    data.update(name="P2-bottle1", horizon=4, goal=[["bottle1", "on", "table1"]])
+    data.pop("optimal_length", None)
+    path = tmp_path / "p2-bottle1.yaml"
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
+    return load_problem(path)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_llm_mcts_solves_the_smallest_case_when_the_replies_start_with_the_right_actions(
+    tmp_path: Path, seed: int
+) -> None:
+    problem = _smallest_case(tmp_path)
+    plan = (Pick("bottle1"), Place("bottle1", "on", "table1"))
+    backend = PlanFollowingBackendDouble(plan)
+    # the prompt without occlusion predicates: only symbolic literals are computed per node,
+    # which is all the plan-following double reads
+    settings = LlmMctsSettings(occlusion_predicates=False)
+    result = LlmMctsPlanner(LLMProposer(backend), settings).solve(problem, seed, 60.0)
     data = json.loads(json.dumps(result.to_json()))
     assert data["success"] is True and data["termination"] == "goal", data["termination"]
     assert data["planner"] == "llm-mcts"
+    assert [step["action"] for step in data["plan"]] == [list(a.as_tuple()) for a in plan]
     assert replay_result_json(problem, data).reached_goal
     prior = data["details"]["prior"]
-    assert data["counters"]["llm_calls"] == len(backend.requests) == prior["states"] >= 1
+    calls = data["details"]["llm_calls_per_step"]
+    # one call per node: the root, then each node a simulation creates (at most one each)
+    assert data["counters"]["llm_calls"] == len(backend.requests) == prior["states"] == sum(calls)
+    assert 2 <= sum(calls) <= data["counters"]["simulations"] + len(calls)
     assert prior["votes"] > 0 and prior["deadline_fallbacks"] == 0
-    assert data["counters"]["simulations"] >= 1
+    # the first reply of every query steered the root: the first request is the root's
+    assert "('HandAvailable', '')" in backend.requests[0].user
+    [query, *_] = data["details"]["llm_queries"]
+    assert query["from_cache"] is False and len(data["details"]["llm_queries"]) == sum(calls)
     times = data["times"]
     assert times["predicates"] > 0 and times["llm"] > 0
     assert times["predicates"] + times["llm"] + times["tree_search"] <= times["total"]

@@ -33,8 +33,8 @@ def stats(q: tuple[float, ...], n: tuple[int, ...], parent: int) -> ChildStats:
 
 
 def test_puct_scores_by_hand() -> None:
-    # parent 4 visits: sqrt(4) = 2; children (Q, n) = (1, 1), (2, 3), (0, 0)
-    hand = stats((1.0, 2.0, 0.0), (1, 3, 0), parent=4)
+    # parent 3 visits: sqrt(3 + 1) = 2; children (Q, n) = (1, 1), (2, 3), (0, 0)
+    hand = stats((1.0, 2.0, 0.0), (1, 3, 0), parent=3)
     prior = TablePriorDouble({"s0": (0.5, 0.25, 0.25)})
     # 1 + 50·0.5·2/2 = 26, 2 + 50·0.25·2/4 = 8.25, 0 + 50·0.25·2/1 = 25
     puct = PUCTSelection(50.0, prior)
@@ -49,14 +49,15 @@ def test_puct_scores_by_hand() -> None:
     assert prior.asked == ["s0", "s0", "s0"]
 
 
-def test_first_selection_at_a_node_ignores_the_prior_and_does_not_ask_for_it() -> None:
+def test_first_selection_at_a_node_follows_the_prior() -> None:
     fresh = stats((0.0, 0.0, 0.0), (0, 0, 0), parent=0)
-    prior = TablePriorDouble({"s0": (1.0, 0.0, 0.0)})
+    prior = TablePriorDouble({"s0": (0.2, 0.7, 0.1)})
     puct = PUCTSelection(50.0, prior)
-    assert puct.scores(fresh) == pytest.approx([0.0, 0.0, 0.0])
+    # N = 0: sqrt(0 + 1) = 1, so the bonus is c·P: 10, 35, 5
+    assert puct.scores(fresh) == pytest.approx([10.0, 35.0, 5.0])
     picks = {puct(fresh, np.random.default_rng(seed)) for seed in range(30)}
-    assert picks == {0, 1, 2}, "every bonus is c·P·sqrt(0) = 0: a uniform random tie"
-    assert prior.asked == []
+    assert picks == {1}, "the prior's favourite, not a uniform draw"
+    assert prior.asked == ["s0"] * 31
 
 
 def test_ties_are_broken_by_the_generator_reproducibly() -> None:
@@ -113,6 +114,7 @@ def test_puct_in_the_search_follows_the_prior_and_asks_only_where_it_selects() -
         mdp, state("s0"), (), rng, settings=SearchSettings(budget=8), policies=policies, tree=tree
     )
     visits = {str(c.action): c.n for c in tree.node(state("s0")).children}
-    # sim 1 is a random tie (N = 0); then 0.7/(1 + n_a) beats 0.1/(1 + n_other) up to n_a = 6
-    assert visits["a"] >= 6 and sum(visits.values()) == 8
-    assert prior.asked == ["s0"] * 7, "asked at every selection but the first; leaves are ends"
+    # from sim 1 on (N = 0 included), 0.7/(1 + n_a) beats 0.1/(1 + n_other) while n_a <= 6:
+    # a gets sims 1-7, and only the 8th goes elsewhere
+    assert visits["a"] == 7 and sum(visits.values()) == 8
+    assert prior.asked == ["s0"] * 8, "asked at every selection at s0; the leaves are ends"
