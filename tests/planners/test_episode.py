@@ -62,17 +62,17 @@ def asks(problems, tmp_path: Path):
 
 def test_a_replayed_query_is_charged_its_original_seconds(problems, domain_factory, asks) -> None:
     problem = problems["P2"]
+    fresh = Episode.begin(problem, 60.0)
     made = asks()
+    fresh.record_query(made)
+    replay = Episode.begin(problem, 60.0)
+    deadline = replay.deadline
     replayed = asks()
+    replay.record_query(replayed)
     assert len(asks.inner.requests) == 1
     assert not made.from_cache and made.original_seconds == made.seconds >= SLOW
     assert replayed.from_cache and replayed.seconds < SLOW / 2
     assert replayed.original_seconds == pytest.approx(made.seconds, abs=CACHE_IO)
-
-    fresh, replay = Episode.begin(problem, 60.0), Episode.begin(problem, 60.0)
-    fresh.record_query(made)
-    deadline = replay.deadline
-    replay.record_query(replayed)
     # the replay's clock counts the original call: same LLM time, deadline moved earlier
     assert replay.clock.llm == pytest.approx(fresh.clock.llm, abs=CACHE_IO)
     assert deadline - replay.deadline == pytest.approx(
