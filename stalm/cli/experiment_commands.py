@@ -77,7 +77,8 @@ def experiment_command(
         typer.Option(
             "--set",
             help="Planner setting KEY=VALUE for every row (repeatable): reuse_tree, execution "
-            "(progress|best_q), kappa_tries, goal_atom_lost, feedback, sims, batch.",
+            "(progress|best_q), kappa_tries, goal_atom_lost, goal_relations_only, feedback, "
+            "sims, batch.",
         ),
     ] = None,
 ) -> None:

@@ -50,6 +50,8 @@ class PlannerConfig:
     """κ draws per task-plan step in Concretize (Algorithm 2: 1)."""
     goal_atom_lost: float = 3.0
     """Reward taken back when an action makes a goal conjunct false (0: the authors')."""
+    goal_relations_only: bool = True
+    """The symbolic proposer grounds relative placements only for the goal's relations."""
 
     def __post_init__(self) -> None:
         if self.proposer not in ("llm", "symbolic"):
@@ -72,6 +74,7 @@ SETTABLE: dict[str, type] = {
     "execution": str,
     "kappa_tries": int,
     "goal_atom_lost": float,
+    "goal_relations_only": bool,
     "sims": int,
     "batch": int,
 }
@@ -142,7 +145,7 @@ def _stalm_like(name: str) -> Builder:
         uct_only = name in ("uct", "uct-hcount")
         proposer: TaskPlanProposer | None = None
         if not uct_only and config.proposer == "symbolic":
-            proposer = SymbolicProposer()
+            proposer = SymbolicProposer(goal_relations_only=config.goal_relations_only)
         elif not uct_only:
             backend = llm_backend(config)
             proposer = LLMProposer(
