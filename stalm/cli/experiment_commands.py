@@ -72,12 +72,21 @@ def experiment_command(
     report_dir: Annotated[
         Path | None, typer.Option(help="Write the report here when done (default: beside).")
     ] = None,
+    overrides: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--set",
+            help="Planner setting KEY=VALUE for every row (repeatable): reuse_tree, execution "
+            "(progress|best_q), kappa_tries, goal_atom_lost, goal_relations_only, feedback, "
+            "sims, batch.",
+        ),
+    ] = None,
 ) -> None:
     """Run a paper experiment's trials; re-running the same command resumes it."""
     from stalm.experiments.results_log import ResultsLog
     from stalm.experiments.runner import run_experiment
     from stalm.experiments.suites import build_plan, trial_specs
-    from stalm.planners.registry import PlannerConfig
+    from stalm.planners.registry import PlannerConfig, with_overrides
 
     plan = build_plan(
         name,
@@ -88,7 +97,7 @@ def experiment_command(
         master_seed=seed,
         budget_scale=budget_scale,
         time_budget_s=time_budget,
-        base=PlannerConfig(sims=sims, cache_mode=cache),
+        base=with_overrides(PlannerConfig(sims=sims, cache_mode=cache), overrides or ()),
     )
     specs = trial_specs(plan)
     log = ResultsLog(results or Path("results") / f"{name}.jsonl")

@@ -111,10 +111,32 @@ def solve_command(
     gif: Annotated[
         Path | None, typer.Option("--gif", help="Write an animation of the plan.")
     ] = None,
+    feedback: Annotated[
+        bool | None,
+        typer.Option(
+            "--feedback/--no-feedback",
+            help="Geometric feedback: failed steps go back to the proposer, asked again "
+            "(default: on with --proposer symbolic, off with a model, as in the paper).",
+        ),
+    ] = None,
+    overrides: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--set",
+            help="Planner setting KEY=VALUE (repeatable): reuse_tree, execution "
+            "(progress|best_q), kappa_tries, goal_atom_lost, goal_relations_only, feedback, "
+            "sims, batch.",
+        ),
+    ] = None,
 ) -> None:
     """Solve a problem with STaLM (or a baseline) and execute the plan in simulation."""
     from stalm.llm.prompt import PromptOptions
-    from stalm.planners.registry import PlannerConfig, build_planner, planner_entry
+    from stalm.planners.registry import (
+        PlannerConfig,
+        build_planner,
+        planner_entry,
+        with_overrides,
+    )
 
     loaded = load_problem(problem)
     if no_uct:
@@ -130,7 +152,9 @@ def solve_command(
             occlusion_predicates=not no_occlusion, ask_challenges=not no_challenges
         ),
         cache_mode=cache,
+        feedback=feedback,
     )
+    config = with_overrides(config, overrides or ())
     symbolic = proposer_name == "symbolic" and entry.name in ("stalm", "stalm-no-uct")
     if entry.uses_llm and not symbolic:
         from stalm.llm.backends import make_backend

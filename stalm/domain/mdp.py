@@ -28,10 +28,13 @@ from stalm.world.state import RobotConf, State
 
 @dataclass(frozen=True)
 class RewardSettings:
-    """R of §4.1 (+3 per goal AtPosition a PLACE makes true, -6 infeasible) and the
-    authors' +100 at the goal (research notes); all configurable."""
+    """R of §4.1 (+3 per goal AtPosition an action makes true, -6 infeasible), -3 per goal
+    AtPosition an action makes false (potential-based shaping, research notes) and the
+    authors' +100 at the goal; all configurable."""
 
     goal_atom: float = 3.0
+    goal_atom_lost: float = 3.0
+    """Taken back per goal conjunct an action makes false (0 gives the authors' farmable +3)."""
     infeasible: float = -6.0
     goal: float = 100.0
 
@@ -161,18 +164,25 @@ class Domain:
         )
 
     def reward(self, state: State, next_state: State) -> float:
-        """+3 per goal conjunct made true (false before), +100 on reaching the goal."""
+        """+3 per goal conjunct made true, -3 per goal conjunct made false, +100 at the goal.
+
+        The -3 makes the +3 a potential-based shaping (Φ = 3 · goal conjuncts true): a path's
+        return is its net goal progress, so picking an object off its goal and placing it
+        back earns nothing and cannot be farmed, and the optimal plans are unchanged
+        (research notes, **Ours**).
+        """
         spec = self.problem.spec
-        gained = sum(
-            1
-            for g in self.problem.goal
-            if at_position(spec, next_state, g.obj, g.direction, g.ref)
-            and not at_position(spec, state, g.obj, g.direction, g.ref)
-        )
-        value = self.reward_settings.goal_atom * gained
+        gained = lost = 0
+        for g in self.problem.goal:
+            before = at_position(spec, state, g.obj, g.direction, g.ref)
+            after = at_position(spec, next_state, g.obj, g.direction, g.ref)
+            gained += after and not before
+            lost += before and not after
+        rewards = self.reward_settings
+        value = rewards.goal_atom * gained - rewards.goal_atom_lost * lost
         if self.is_goal(next_state):
             value += self.reward_settings.goal
-        return value
+        return float(value)
 
     def step(self, state: State, action: Action) -> Outcome:
         """Apply a feasible sampled action: s', r and whether the goal is reached."""

@@ -25,8 +25,13 @@ TABLE2_PLANNERS = (
     "llm-mcts",
     "stalm",
 )
-ARM_ALIASES = {"stalm-symbolic": ("stalm", "symbolic")}
-"""Row names that are a planner with a non-default proposer (no model at all)."""
+ARM_ALIASES: dict[str, tuple[str, dict[str, object]]] = {
+    "stalm-symbolic": ("stalm", {"proposer": "symbolic"}),
+    "stalm-feedback": ("stalm", {"feedback": True}),
+}
+"""Row names that are a planner with other settings: STaLM with the Fast Downward proposer
+(no model at all; geometric feedback on), and STaLM with a model and geometric feedback
+(beyond the paper; the paper's ``stalm`` row has none)."""
 PAPER_TRIALS = 50
 ALL_PROBLEMS = ("P1", "P2", "P3", "P4", "P5", "P6")
 
@@ -56,9 +61,9 @@ class ExperimentPlan:
 
 def arm_for(name: str, base: PlannerConfig, label: str | None = None) -> Arm:
     """The arm a ``--planners`` entry names (a planner or an alias such as stalm-symbolic)."""
-    planner, proposer = ARM_ALIASES.get(name, (name, base.proposer))
+    planner, changes = ARM_ALIASES.get(name, (name, {}))
     planner_entry(planner)  # an unknown name fails here, naming the choices
-    return Arm(label or name, planner, replace(base, proposer=proposer))
+    return Arm(label or name, planner, replace(base, **changes))  # type: ignore[arg-type]
 
 
 def build_plan(

@@ -51,6 +51,22 @@ PREDICATE_ARITY: dict[str, int] = {
     "PlaceOccludedBy": 4,
 }
 
+#: The geometric-feedback predicates (``domain_pddl(feedback=True)``): a pick or placement
+#: that failed geometrically, and whether the region concerned is as it was then apart from
+#: the acting object (picking the object itself does not make room for it). Only a
+#: classical planner reads them; the paper's prompt never shows them.
+FEEDBACK_ARITY: dict[str, int] = {
+    "PickFailed": 2,
+    "PlaceFailed": 4,
+    "RegionUnchangedFor": 2,
+    "GoalRelation": 3,
+    "Forbids": 5,
+    "Needs": 2,
+}
+#: The type of the problem's failure objects: one per placement that failed beside other
+#: objects, ``(Forbids f o dir ref region)`` while every ``(Needs f other)`` is on the region.
+FAILURE_TYPE = "failure"
+
 _PDDL_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]*")
 _RESERVED = frozenset({"object", "either", "and", "or", "not", "forall", "exists", "when"})
 
@@ -72,6 +88,15 @@ _OCCLUSION_PREDICATES = """    (PickOccludedBy ?subject - movable_object ?occlud
     (UnsafePick ?subject - movable_object)
     (UnsafePlace ?subject - movable_object ?direction - direction ?reference - placeable)"""
 
+_FEEDBACK_PREDICATES = """    (PickFailed ?subject - movable_object ?region - region)
+    (PlaceFailed ?subject - movable_object ?direction - direction ?reference - placeable
+                 ?region - region)
+    (RegionUnchangedFor ?region - region ?subject - movable_object)
+    (GoalRelation ?subject - movable_object ?direction - direction ?reference - placeable)
+    (Forbids ?failure - failure ?subject - movable_object ?direction - direction
+             ?reference - placeable ?region - region)
+    (Needs ?failure - failure ?other - movable_object)"""
+
 _DERIVED = """  (:derived (UnsafePick ?subject - movable_object)
     (exists (?occluder - entity) (PickOccludedBy ?subject ?occluder)))
 
@@ -88,13 +113,49 @@ def _clear_occlusions_by(entity: str) -> str:
         (not (PlaceOccludedBy ?other ?direction ?reference {entity})))"""
 
 
-def _actions(occlusion: bool) -> str:
+_PICK_FEEDBACK = """
+      (not (exists (?region - region)
+        (and (PickFailed ?subject ?region) (RegionUnchangedFor ?region ?subject))))"""
+
+_PLACE_FEEDBACK = """
+      (not (exists (?region - region)
+        (and (PlaceFailed ?subject ?direction ?reference ?region)
+             (RegionUnchangedFor ?region ?subject))))
+      (not (exists (?region - region)
+        (and (AtPosition ?reference on ?region) (PlaceFailed ?subject on ?region ?region)
+             (RegionUnchangedFor ?region ?subject))))
+      (not (exists (?failure - failure ?region - region)
+        (and (or (Forbids ?failure ?subject ?direction ?reference ?region)
+                 (and (AtPosition ?reference on ?region)
+                      (Forbids ?failure ?subject on ?region ?region)))
+             (forall (?other - movable_object)
+               (or (not (Needs ?failure ?other)) (AtPosition ?other on ?region))))))"""
+
+_PICK_TOUCHES = """
+      (forall (?region - region ?other - movable_object)
+        (when (and (AtPosition ?subject on ?region) (not (= ?other ?subject)))
+          (not (RegionUnchangedFor ?region ?other))))"""
+
+
+def _actions(occlusion: bool, feedback: bool = False, goal_relations_only: bool = False) -> str:
     """The three operators. Beyond the prompt's domain, a relative PLACE also puts the object
     on its reference's region (as it does geometrically), so goals such as P2's "on table2 and
-    right_of bottle1" are reachable for a classical planner."""
+    right_of bottle1" are reachable for a classical planner. With ``feedback``, a pick or
+    placement that failed geometrically is ruled out while its region is unchanged, and a
+    pick marks the region it takes from as changed for every other object (taking an object
+    away makes room for the others, not for itself; :mod:`stalm.planners.feedback`). With
+    ``goal_relations_only`` a relative PLACE is grounded only for the goal's own relations
+    (``GoalRelation``): any
+    other object is put *on* a region, which covers every spot a relative placement there
+    could name, so no plan is lost while the planner's choices (and its grounding, which
+    grows with objects squared) shrink to what can matter."""
     pick_safe = " (not (UnsafePick ?subject))" if occlusion else ""
     place_safe = "\n      (not (UnsafePlace ?subject ?direction ?reference))" if occlusion else ""
+    pick_safe += _PICK_FEEDBACK if feedback else ""
+    place_safe += _PLACE_FEEDBACK if feedback else ""
     pick_clears = _clear_occlusions_by("?subject") if occlusion else ""
+    pick_clears += _PICK_TOUCHES if feedback else ""
+    relative_goal = " (GoalRelation ?subject ?direction ?reference)" if goal_relations_only else ""
     open_clears = _clear_occlusions_by("?door") if occlusion else ""
     return f"""  (:action pick
     :parameters (?subject - movable_object)
@@ -112,7 +173,7 @@ def _actions(occlusion: bool) -> str:
       (or (and (= ?direction on)
                (exists (?region - region) (= ?region ?reference)))
           (and (not (= ?direction on))
-               (not (= ?reference ?subject))
+               (not (= ?reference ?subject)){relative_goal}
                (exists (?other - movable_object) (= ?other ?reference)))))
     :effect (and
       (not (RobotHolding ?subject))
@@ -145,19 +206,28 @@ def requirements(options: PromptOptions) -> tuple[str, ...]:
     return tuple(needed)
 
 
-def domain_pddl(options: PromptOptions = PromptOptions()) -> str:  # noqa: B008 - frozen
-    """The strict PDDL domain; ``options.occlusion_predicates`` as in the prompt's ablation."""
+def domain_pddl(
+    options: PromptOptions = PromptOptions(),  # noqa: B008 - frozen
+    *,
+    feedback: bool = False,
+    goal_relations_only: bool = False,
+) -> str:
+    """The strict PDDL domain; ``options.occlusion_predicates`` as in the prompt's ablation,
+    ``feedback`` adds the geometric-feedback predicates (:data:`FEEDBACK_ARITY`) and
+    ``goal_relations_only`` (with ``feedback``) keeps relative placements to the goal's."""
     occlusion = options.occlusion_predicates
     predicates = _BASE_PREDICATES + ("\n" + _OCCLUSION_PREDICATES if occlusion else "")
+    predicates += "\n" + _FEEDBACK_PREDICATES if feedback else ""
+    types = _TYPES.replace(" - object", f" {FAILURE_TYPE} - object") if feedback else _TYPES
     parts = [
         f"(define (domain {DOMAIN_NAME})\n  (:requirements {' '.join(requirements(options))})",
-        _TYPES,
+        types,
         _CONSTANTS,
         f"  (:predicates\n{predicates})",
     ]
     if occlusion:
         parts.append(_DERIVED)
-    parts.append(_actions(occlusion))
+    parts.append(_actions(occlusion, feedback, feedback and goal_relations_only))
     return "\n\n".join(parts) + ")\n"
 
 
@@ -173,8 +243,17 @@ def _check_names(vocabulary: Vocabulary) -> None:
         seen[name.lower()] = name
 
 
-def _check_literal(vocabulary: Vocabulary, literal: GroundLiteral, field: str) -> None:
+def failure_name(index: int) -> str:
+    """The PDDL object of the ``index``-th failure of a feedback problem."""
+    return f"failure{index}"
+
+
+def _check_literal(
+    vocabulary: Vocabulary, literal: GroundLiteral, field: str, feedback: bool = False
+) -> None:
     arity = PREDICATE_ARITY.get(literal.name)
+    if arity is None and feedback:
+        arity = FEEDBACK_ARITY.get(literal.name)
     if arity is None:
         raise StalmError(f"{field}: unknown predicate {literal.name!r} in {literal}")
     if len(literal.args) != arity:
@@ -183,6 +262,8 @@ def _check_literal(vocabulary: Vocabulary, literal: GroundLiteral, field: str) -
             f"in {literal}"
         )
     known = set(vocabulary.all_names) | set(DIRECTIONS)
+    if feedback and literal.name in ("Forbids", "Needs"):
+        known.add(literal.args[0])
     for arg in literal.args:
         if arg not in known:
             raise StalmError(f"{field}: unknown name {arg!r} in {literal}")
@@ -198,8 +279,16 @@ def problem_pddl(
     goal: Sequence[GroundLiteral],
     name: str,
     options: PromptOptions = PromptOptions(),  # noqa: B008 - frozen
+    *,
+    feedback: bool = False,
+    failures: int = 0,
 ) -> str:
     """A strict PDDL problem for :func:`domain_pddl` with the same options.
+
+    With ``feedback`` the init may hold the feedback predicates (``failures`` failure objects
+    ``failure0`` ... are declared for ``Forbids``/``Needs``), every region starts
+    ``RegionUnchangedFor`` every movable object, and the goal's relative ``AtPosition``
+    atoms become ``GoalRelation`` facts.
 
     ``name`` becomes the problem's PDDL name (characters PDDL does not allow become ``-``).
     Raises :class:`StalmError` for names PDDL cannot express and for literals with unknown
@@ -207,7 +296,11 @@ def problem_pddl(
     """
     _check_names(vocabulary)
     for literal in init:
-        _check_literal(vocabulary, literal, "init")
+        _check_literal(vocabulary, literal, "init", feedback)
+        if literal.name in ("Forbids", "Needs") and literal.args[0] not in {
+            failure_name(i) for i in range(failures)
+        }:
+            raise StalmError(f"init: {literal} names an undeclared failure object")
     for literal in goal:
         _check_literal(vocabulary, literal, "goal")
     if not options.occlusion_predicates:
@@ -220,7 +313,21 @@ def problem_pddl(
         (vocabulary.doors, DOOR_TYPE),
         (vocabulary.regions, REGION_TYPE),
     ]
+    if feedback and failures:
+        groups.append((tuple(failure_name(i) for i in range(failures)), FAILURE_TYPE))
     objects = "".join(f"\n    {' '.join(names)} - {kind}" for names, kind in groups if names)
+    if feedback:
+        unchanged = [
+            GroundLiteral("RegionUnchangedFor", (r, o))
+            for r in vocabulary.regions
+            for o in vocabulary.movables
+        ]
+        relations = [
+            GroundLiteral("GoalRelation", literal.args)
+            for literal in goal
+            if literal.name == "AtPosition" and literal.args[1] != "on"
+        ]
+        init = [*init, *unchanged, *relations]
     init_lines = "".join(f"\n    {_atom(literal)}" for literal in init)
     goal_lines = "".join(f"\n    {_atom(literal)}" for literal in goal)
     return (

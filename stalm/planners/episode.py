@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from stalm.domain.mdp import Domain
+from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
 from stalm.planners.base import Counters, PhaseTimes, PlanResult
 from stalm.planners.proposers import Proposal
@@ -25,6 +25,7 @@ from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.search.concretize import ConcretizeResult
 from stalm.search.failure_kinds import figure5_kinds
 from stalm.world.problem import Problem
+from stalm.world.scene import Sim
 from stalm.world.state import State
 
 
@@ -244,11 +245,12 @@ def run_episode(
     problem: Problem,
     time_budget_s: float | None,
     run: Callable[[Domain, Episode], PlanResult],
+    rewards: RewardSettings | None = None,
 ) -> PlanResult:
     """Start a trial's clock and its own simulator, run ``run``, and always close the
-    simulator (one PyBullet client per trial)."""
+    simulator (one PyBullet client per trial). ``rewards``: R's constants (paper defaults)."""
     episode = Episode.begin(problem, time_budget_s)
-    domain = Domain.create(problem)
+    domain = Domain(problem, Sim(problem.spec), reward_settings=rewards or RewardSettings())
     try:
         return run(domain, episode)
     finally:

@@ -8,8 +8,9 @@ as data with their reason.
 
 from __future__ import annotations
 
+import inspect
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -18,9 +19,11 @@ from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMBackend, LLMRequest
 from stalm.llm.constraints import build_constraint, json_reply_to_plan_text
+from stalm.llm.feedback_prompt import with_feedback
 from stalm.llm.problem_prompt import problem_prompt
 from stalm.llm.prompt import Prompt, PromptOptions
 from stalm.llm.reply_parser import parse_reply
+from stalm.planners.feedback import FailedStep
 from stalm.predicates.literals import GroundLiteral
 from stalm.world.problem import Problem
 from stalm.world.state import State
@@ -83,8 +86,34 @@ class TaskPlanProposer(Protocol):
         seed: int,
         deadline: float | None = None,
     ) -> Proposal:
-        """Up to ``n`` task plans from ``state``; stop early at ``deadline`` (monotonic)."""
+        """Up to ``n`` task plans from ``state``; stop early at ``deadline`` (monotonic).
+
+        A proposer that can use geometric feedback is a :class:`FeedbackProposer`. STaLM
+        passes ``feedback=`` only when feedback is switched on and there is some, so a
+        proposer written without it keeps working.
+        """
         ...
+
+
+class FeedbackProposer(TaskPlanProposer, Protocol):
+    """A proposer that also takes the failed steps that hold in ``state``
+    (:class:`stalm.planners.feedback.FailedStep`) and avoids them."""
+
+    def propose(
+        self,
+        problem: Problem,
+        state: State,
+        literals: Iterable[GroundLiteral],
+        n: int,
+        seed: int,
+        deadline: float | None = None,
+        feedback: Sequence[FailedStep] = (),
+    ) -> Proposal: ...
+
+
+def takes_feedback(proposer: TaskPlanProposer) -> bool:
+    """Whether ``proposer.propose`` accepts ``feedback=`` (a :class:`FeedbackProposer`)."""
+    return "feedback" in inspect.signature(proposer.propose).parameters
 
 
 @dataclass
@@ -109,11 +138,17 @@ class LLMProposer:
         n: int,
         seed: int,
         deadline: float | None = None,
+        feedback: Sequence[FailedStep] = (),
     ) -> Proposal:
+        """The paper's query; with ``feedback`` (``--feedback``, beyond the paper) the failed
+        steps are appended to the prompt as Iterative-Replanning's feedback is."""
+        prompt = problem_prompt(problem, literals, self.options)
+        if feedback:
+            prompt = with_feedback(prompt, [step.as_failed_plan() for step in feedback])
         return ask_for_task_plans(
             self.backend,
             Vocabulary.from_problem(problem),
-            problem_prompt(problem, literals, self.options),
+            prompt,
             n,
             seed,
             constrained=self.constrained,

@@ -8,8 +8,8 @@ from it inside the process that plans, because a loaded model cannot be shipped.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMBackend
@@ -38,6 +38,20 @@ class PlannerConfig:
     """Reply cache: use, refresh, off or replay."""
     cache_file: str | None = None
     """The reply cache's SQLite file (None: the default under $STALM_CACHE_DIR)."""
+    feedback: bool | None = None
+    """Geometric feedback to the proposer; None: on for the symbolic proposer, off for a
+    language model (the paper's method; ``--feedback`` turns it on)."""
+    reuse_tree: bool = True
+    """Keep the executed child's subtree between real steps (the authors' loop)."""
+    execution: str = "progress"
+    """What an online tree planner executes without a goal plan: 'progress' (search on
+    while nothing promises progress) or 'best_q' (the authors' rule)."""
+    kappa_tries: int = 1
+    """κ draws per task-plan step in Concretize (Algorithm 2: 1)."""
+    goal_atom_lost: float = 3.0
+    """Reward taken back when an action makes a goal conjunct false (0: the authors')."""
+    goal_relations_only: bool = True
+    """The symbolic proposer grounds relative placements only for the goal's relations."""
 
     def __post_init__(self) -> None:
         if self.proposer not in ("llm", "symbolic"):
@@ -46,6 +60,51 @@ class PlannerConfig:
             raise StalmError(f"N_batch must be at least 1, got {self.batch}")
         if self.sims is not None and self.sims < 0:
             raise StalmError(f"N_budget must not be negative, got {self.sims}")
+        if self.execution not in ("progress", "best_q"):
+            raise StalmError(
+                f"unknown execution rule '{self.execution}' (available: progress, best_q)"
+            )
+        if self.kappa_tries < 1:
+            raise StalmError(f"kappa_tries must be at least 1, got {self.kappa_tries}")
+
+
+SETTABLE: dict[str, type] = {
+    "feedback": bool,
+    "reuse_tree": bool,
+    "execution": str,
+    "kappa_tries": int,
+    "goal_atom_lost": float,
+    "goal_relations_only": bool,
+    "sims": int,
+    "batch": int,
+}
+"""The :class:`PlannerConfig` fields ``--set KEY=VALUE`` reaches, with their types."""
+
+
+def with_overrides(config: PlannerConfig, pairs: Sequence[str]) -> PlannerConfig:
+    """``config`` with ``KEY=VALUE`` overrides (``--set``), each checked by name and type."""
+    changes: dict[str, object] = {}
+    for pair in pairs:
+        key, sep, text = pair.partition("=")
+        key = key.strip().replace("-", "_")
+        if not sep or key not in SETTABLE:
+            raise StalmError(
+                f"--set {pair!r}: expected KEY=VALUE with KEY one of {', '.join(SETTABLE)}"
+            )
+        kind = SETTABLE[key]
+        text = text.strip()
+        value: object
+        try:
+            if kind is bool:
+                if text.lower() not in ("true", "false", "1", "0", "on", "off"):
+                    raise ValueError(text)
+                value = text.lower() in ("true", "1", "on")
+            else:
+                value = kind(text)
+        except ValueError:
+            raise StalmError(f"--set {pair!r}: {key} takes a {kind.__name__}") from None
+        changes[key] = value
+    return replace(config, **changes)  # type: ignore[arg-type]
 
 
 Builder = Callable[[PlannerConfig, Progress | None], Planner]
@@ -77,6 +136,7 @@ def use_constraint(config: PlannerConfig, backend: LLMBackend) -> bool:
 
 def _stalm_like(name: str) -> Builder:
     def build(config: PlannerConfig, progress: Progress | None) -> Planner:
+        from stalm.domain.mdp import RewardSettings
         from stalm.planners.proposers import LLMProposer, TaskPlanProposer
         from stalm.planners.stalm import StalmPlanner, StalmSettings
         from stalm.planners.symbolic import SymbolicProposer
@@ -85,18 +145,26 @@ def _stalm_like(name: str) -> Builder:
         uct_only = name in ("uct", "uct-hcount")
         proposer: TaskPlanProposer | None = None
         if not uct_only and config.proposer == "symbolic":
-            proposer = SymbolicProposer()
+            proposer = SymbolicProposer(goal_relations_only=config.goal_relations_only)
         elif not uct_only:
             backend = llm_backend(config)
             proposer = LLMProposer(
                 backend, config.prompt, constrained=use_constraint(config, backend)
             )
         budget = config.sims if config.sims is not None else (35 if uct_only else 30)
+        feedback = config.feedback
+        if feedback is None:
+            feedback = config.proposer == "symbolic"
         settings = StalmSettings(
             n_batch=config.batch,
             search=SearchSettings(budget=budget),
             use_tree=name != "stalm-no-uct",
             leaf_value="hcount" if name == "uct-hcount" else "rollout",
+            reuse_tree=config.reuse_tree,
+            feedback=feedback and not uct_only,
+            execution=config.execution,  # type: ignore[arg-type]
+            kappa_tries=config.kappa_tries,
+            rewards=RewardSettings(goal_atom_lost=config.goal_atom_lost),
             # the symbolic proposer plans with occlusions whatever the prompt options say
             occlusion_predicates=(
                 config.proposer == "symbolic" or config.prompt.occlusion_predicates

@@ -16,7 +16,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,8 +24,9 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.serialize import discrete_from_json
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.llm.pddl import domain_pddl, problem_pddl
+from stalm.llm.pddl import domain_pddl, failure_name, problem_pddl
 from stalm.llm.problem_prompt import goal_literals
+from stalm.planners.feedback import FailedStep
 from stalm.planners.proposers import Proposal
 from stalm.predicates.literals import GroundLiteral
 from stalm.world.problem import Problem
@@ -59,9 +60,16 @@ def read_plan_steps(text: str) -> tuple[tuple[str, ...], ...]:
     return tuple(steps)
 
 
+class DownwardGaveUp(Exception):
+    """Fast Downward stopped without an answer for a reason that is data, not a bug: out of
+    time or memory, or killed. A proposer turns it into an empty proposal."""
+
+
 def translate_task(work: Path, time_limit_s: float) -> None:
     """Run Fast Downward's translator on ``domain.pddl`` and ``problem.pddl`` in ``work``,
-    writing ``task.sas`` there; raises :class:`StalmError` with its message if it fails."""
+    writing ``task.sas`` there. Raises :class:`DownwardGaveUp` when it runs out of memory or
+    is killed, :class:`subprocess.TimeoutExpired` past ``time_limit_s``, and
+    :class:`StalmError` with its message if it rejects the task (a bug in the PDDL)."""
     translate = subprocess.run(
         [
             sys.executable,
@@ -79,6 +87,11 @@ def translate_task(work: Path, time_limit_s: float) -> None:
         check=False,
     )
     if translate.returncode != 0:
+        if "MemoryError" in translate.stderr or translate.returncode < 0:
+            raise DownwardGaveUp(
+                f"Fast Downward's translator ran out of memory or was killed "
+                f"(exit {translate.returncode})"
+            )
         raise StalmError(f"Fast Downward's translator failed: {translate.stderr[-400:]}")
 
 
@@ -129,9 +142,19 @@ def _read_plan(text: str, vocabulary: Vocabulary) -> tuple[DiscreteAction, ...]:
 
 @dataclass
 class SymbolicProposer:
-    """Up to N task plans from a classical planner on the state's predicates."""
+    """Up to N task plans from a classical planner on the state's predicates.
+
+    Given geometric feedback (:mod:`stalm.planners.feedback`), the failed steps' facts join the
+    init of the PDDL (whose domain understands them), so Fast Downward's next plans avoid what
+    Concretize already found infeasible there. Fast Downward running out of time or memory,
+    or being killed, is data: that call yields no plan and the reason is kept.
+    """
 
     time_limit_s: float = 20.0
+    goal_relations_only: bool = True
+    """Ground a relative PLACE only for the goal's own relations (any other object goes *on*
+    a region, which covers every spot a relative placement could name): far fewer choices
+    and a grounding that grows linearly, not quadratically, with the objects."""
 
     @property
     def name(self) -> str:
@@ -145,6 +168,7 @@ class SymbolicProposer:
         n: int,
         seed: int,
         deadline: float | None = None,
+        feedback: Sequence[FailedStep] = (),
     ) -> Proposal:
         vocabulary = Vocabulary.from_problem(problem)
 
@@ -155,33 +179,98 @@ class SymbolicProposer:
             return max(0.5, min(self.time_limit_s, deadline - time.monotonic()))
 
         start = time.perf_counter()
-        plans: list[tuple[DiscreteAction, ...]] = []
-        reasons: list[str] = []
-        with tempfile.TemporaryDirectory(prefix="stalm-fd-") as folder:
-            work = Path(folder)
-            (work / "domain.pddl").write_text(domain_pddl())
-            (work / "problem.pddl").write_text(
-                problem_pddl(vocabulary, sorted(literals), goal_literals(problem), "state")
+        exact = [step for step in feedback if step.forbids is None]
+        rules = [step for step in feedback if step.forbids is not None]
+        base = set(literals) | {fact for step in exact for fact in step.facts}
+        plans, reasons = self._search(problem, vocabulary, base, rules, n, seed, limit, deadline)
+        while not plans and rules and not _gave_up(reasons) and not _past(deadline):
+            # the generalised rules contradict each other (P5: no can after the grill, and
+            # no grill after a can that was drawn in front): the newest is the likeliest to
+            # have generalised from an unlucky draw, so drop rules newest first
+            rules = rules[:-1]
+            plans, reasons = self._search(
+                problem, vocabulary, base, rules, n, seed, limit, deadline
             )
-            translate_task(work, limit())
-            for index in range(n):
-                if deadline is not None and time.monotonic() >= deadline:
-                    break
-                # Fast Downward takes a signed 32-bit seed
-                fd_seed = (seed + index) % 2**31
-                run = search_task(work, SEARCH.format(seed=fd_seed), limit())
-                if run.plan is None:
-                    reasons.append(_why(run.output))
-                    continue
-                plan = _read_plan(run.plan, vocabulary)
-                if plan not in plans:
-                    plans.append(plan)
         return Proposal(
             plans=tuple(plans),
             unparseable=tuple(reasons[:1]) if not plans else (),
             calls=0,
             seconds=time.perf_counter() - start,
         )
+
+    def _search(
+        self,
+        problem: Problem,
+        vocabulary: Vocabulary,
+        init: set[GroundLiteral],
+        rules: Sequence[FailedStep],
+        n: int,
+        seed: int,
+        limit: Callable[[], float],
+        deadline: float | None,
+    ) -> tuple[list[tuple[DiscreteAction, ...]], list[str]]:
+        """Up to ``n`` distinct plans from Fast Downward on ``init`` and the rules, and the
+        reasons of the runs that gave none."""
+        plans: list[tuple[DiscreteAction, ...]] = []
+        reasons: list[str] = []
+        with tempfile.TemporaryDirectory(prefix="stalm-fd-") as folder:
+            work = Path(folder)
+            (work / "domain.pddl").write_text(
+                domain_pddl(feedback=True, goal_relations_only=self.goal_relations_only)
+            )
+            (work / "problem.pddl").write_text(
+                problem_pddl(
+                    vocabulary,
+                    sorted(init | set(_rule_literals(rules))),
+                    goal_literals(problem),
+                    "state",
+                    feedback=True,
+                    failures=len(rules),
+                )
+            )
+            try:
+                translate_task(work, limit())
+            except subprocess.TimeoutExpired:
+                return plans, ["Fast Downward's translator did not finish in its time limit"]
+            except DownwardGaveUp as error:
+                return plans, [str(error)]
+            for index in range(n):
+                if deadline is not None and time.monotonic() >= deadline:
+                    break
+                # Fast Downward takes a signed 32-bit seed
+                fd_seed = (seed + index) % 2**31
+                try:
+                    run = search_task(work, SEARCH.format(seed=fd_seed), limit())
+                except subprocess.TimeoutExpired:
+                    reasons.append("Fast Downward found no plan in its time limit")
+                    continue
+                if run.plan is None:
+                    reasons.append(_why(run.output))
+                    continue
+                plan = _read_plan(run.plan, vocabulary)
+                if plan not in plans:
+                    plans.append(plan)
+        return plans, reasons
+
+
+def _rule_literals(rules: Sequence[FailedStep]) -> list[GroundLiteral]:
+    """``Forbids``/``Needs`` facts for the placement rules, one failure object each."""
+    literals: list[GroundLiteral] = []
+    for index, step in enumerate(rules):
+        assert step.forbids is not None
+        name = failure_name(index)
+        literals.append(GroundLiteral("Forbids", (name, *step.forbids)))
+        literals += [GroundLiteral("Needs", (name, other)) for other in step.besides]
+    return literals
+
+
+def _past(deadline: float | None) -> bool:
+    return deadline is not None and time.monotonic() >= deadline
+
+
+def _gave_up(reasons: Sequence[str]) -> bool:
+    """Fast Downward stopped for time or memory (not for want of a plan): no rule is to blame."""
+    return any("time limit" in r or "memory" in r for r in reasons)
 
 
 def _why(output: str) -> str:

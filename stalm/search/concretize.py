@@ -140,15 +140,21 @@ def concretize(
     *,
     depth0: int = 0,
     horizon: int = 20,
+    kappa_tries: int = 1,
 ) -> ConcretizeResult:
     """Ground ``task_plans`` from ``state`` (episode depth ``depth0``, horizon H = ``horizon``).
 
-    One κ draw per step (ψ makes the operator's own number of tries), as in Algorithm 2.
+    ``kappa_tries`` κ draws per step before the step counts as infeasible: 1 in Algorithm 2
+    (ψ itself makes the operator's number of tries), 3 in the authors' code. A symbolic
+    precondition failure is final on the first draw. Every draw is paid for by ψ; only the
+    last one becomes the step (and the tree's κ child).
     """
+    if kappa_tries < 1:
+        raise ValueError(f"kappa_tries must be at least 1, got {kappa_tries}")
     counting = CountingMDP(mdp)
     plans: list[ConcretePlan] = []
     for index, task_plan in enumerate(task_plans):
-        plan = _concretize_one(counting, state, index, task_plan, rng, depth0, horizon)
+        plan = _concretize_one(counting, state, index, task_plan, rng, depth0, horizon, kappa_tries)
         plans.append(plan)
         if plan.reached_goal:
             return ConcretizeResult(True, tuple(plans), plan.actions, counting.counts())
@@ -163,6 +169,7 @@ def _concretize_one(
     rng: np.random.Generator,
     depth0: int,
     horizon: int,
+    kappa_tries: int = 1,
 ) -> ConcretePlan:
     if not task_plan.actions:
         reason = task_plan.unparseable or "the task plan is empty"
@@ -178,6 +185,10 @@ def _concretize_one(
                 index, task_plan, tuple(steps), False, failure, detail, truncated=True
             )
         kappa = draw(mdp, state, action, rng)
+        for _ in range(kappa_tries - 1):
+            if not isinstance(kappa, Infeasibility) or kappa.kind == PRECONDITION:
+                break
+            kappa = draw(mdp, state, action, rng)
         outcome = apply(mdp, state, kappa)
         steps.append(ConcreteStep(state, action, kappa, outcome))
         depth += 1

@@ -144,8 +144,8 @@ class SearchTree:
     """Discrete nodes by state, with their continuous nodes and κ children.
 
     Create it with the root state and the root's legal actions (:meth:`for_root` asks an MDP
-    for them). Nodes and children are only ever added, never removed, and statistics change
-    only in :meth:`backup`.
+    for them). Nodes and children are only ever added, never removed (:meth:`subtree` makes a
+    new tree of what a new root still reaches), and statistics change only in :meth:`backup`.
     """
 
     def __init__(self, root: State, root_actions: Sequence[DiscreteAction]) -> None:
@@ -199,6 +199,37 @@ class SearchTree:
             return False
         node.children[kappa] = _KappaChild(outcome)
         return True
+
+    def subtree(self, root: State) -> SearchTree:
+        """The part of this tree reachable from ``root``, as a new tree rooted there.
+
+        Tree reuse between real steps (research notes, "The experiment loop"): after the
+        robot executes an action, the node its outcome leads to becomes the next search's
+        root and keeps every statistic below it (visits, Q, κ children and their stored
+        outcomes); nodes no longer reachable are dropped, so the tree's memory follows what
+        can still matter. Reachable means through a feasible κ child whose next state has a
+        node. The nodes are shared, not copied: this tree must not be used afterwards.
+        """
+        if root not in self._nodes:
+            raise KeyError("the new root has no node in this tree")
+        kept: dict[State, _DiscreteNode] = {}
+        frontier = [root]
+        while frontier:
+            state = frontier.pop()
+            if state in kept:
+                continue
+            node = self._nodes[state]
+            kept[state] = node
+            for cont in node.children.values():
+                for child in cont.children.values():
+                    following = child.outcome.state
+                    if child.outcome.feasible and following in self._nodes:
+                        frontier.append(following)
+        tree = SearchTree.__new__(SearchTree)
+        tree._root = root
+        # creation order is kept, so snapshots and iteration stay deterministic
+        tree._nodes = {state: node for state, node in self._nodes.items() if state in kept}
+        return tree
 
     # ---------------------------------------------------------------- reading
     def outcome(self, edge: Edge) -> Outcome:

@@ -144,3 +144,22 @@ def test_legal_actions_follow_the_symbolic_preconditions(domain_factory, rng) ->
     assert "not a region" in str(
         domain.precondition_failure(holding, Place("bottle2", "on", "salter"))
     )
+
+
+def test_picking_a_goal_object_off_its_goal_and_placing_it_back_nets_zero(domain_factory) -> None:
+    """P6's grill starts on its goal counter: −3 for picking it off, +3 for putting it back."""
+    domain = domain_factory("P6")
+    rng = np.random.default_rng(3)
+    state = domain.problem.initial_state
+    assert at_position(domain.problem.spec, state, "beef_grill", "on", "counter2")
+    rewards = []
+    for action in (Open("kitchen_door"), Pick("beef_grill"), Place("beef_grill", "on", "counter2")):
+        for _ in range(10):
+            _, outcome = domain.sample_and_step(state, action, rng)
+            if outcome.feasible:
+                break
+        assert outcome.feasible, (action, outcome.failure)
+        rewards.append(outcome.reward)
+        state = outcome.state
+    assert rewards == [0.0, -3.0, 3.0]
+    assert sum(rewards) == 0.0

@@ -133,3 +133,31 @@ def test_a_reply_cut_by_max_tokens_keeps_its_complete_steps_and_is_marked(proble
     assert proposal.plans == (whole, whole[:4])
     assert proposal.truncated == (False, True) and proposal.truncated_plans == 1
     assert proposal.unparseable == ()
+
+
+def test_feedback_reaches_the_prompt_only_when_given(problems) -> None:
+    """--feedback: the failed steps go after the paper's prompt in Iterative-Replanning's
+    words; without feedback the prompt is exactly the paper's."""
+    from stalm.domain.outcome import Infeasibility, Outcome
+    from stalm.planners.feedback import failed_steps
+    from stalm.search.concretize import ConcretePlan, ConcreteStep, TaskPlan
+
+    problem = problems["P2"]
+    state = problem.initial_state
+    plan = (Open("kitchen_door"), Pick("bottle2"), Place("bottle2", "on", "table1"))
+    why = Infeasibility("no_placement", "no free spot for 'bottle2' on 'table1'")
+    step = ConcreteStep(state, plan[2], why, Outcome(state, -6.0, False, why))
+    failed = ConcretePlan(
+        0, TaskPlan(plan), (step,), False, "lack_of_3d_understanding", str(why), failed_step=2
+    )
+    feedback = failed_steps(problem, [failed])
+    backend = CannedRepliesBackendDouble(("plan = [('pick', 'salter')]",))
+    proposer = LLMProposer(backend)
+    literals = [GroundLiteral("HandAvailable")]
+    proposer.propose(problem, state, literals, 1, seed=0)
+    proposer.propose(problem, state, literals, 1, seed=0, feedback=feedback)
+    plain, told = backend.requests
+    assert "Failed plans" not in plain.user
+    assert told.user.startswith(plain.user)
+    assert "('place', 'bottle2', 'on', 'table1')" in told.user
+    assert "at step 3" in told.user and "no free spot for 'bottle2' on 'table1'" in told.user

@@ -107,3 +107,55 @@ def test_plain_uct_runs_the_same_loop_without_a_model(problems) -> None:
     assert result.counters.llm_calls == 0 and result.counters.simulations > 0
     assert result.termination in {"goal", "timeout", "horizon"}
     assert len(result.states) == len(result.plan) + 1
+
+
+def test_the_executed_childs_subtree_is_kept_between_steps_and_can_be_switched_off(
+    problems,
+) -> None:
+    """Tree reuse: every real step after the first starts from a root that already has the
+    visits the last step's search gave it; with reuse off, each step starts from nothing."""
+    kept = StalmPlanner(None, StalmSettings(search=SearchSettings(budget=6)))
+    result = kept.solve(problems["P2"], seed=1, time_budget_s=20.0)
+    reused = result.details["reused_root_visits"]
+    assert len(result.plan) >= 2 and reused
+    assert all(visits > 0 for visits in reused)
+    fresh = StalmPlanner(None, StalmSettings(search=SearchSettings(budget=6), reuse_tree=False))
+    assert (
+        fresh.solve(problems["P2"], seed=1, time_budget_s=8.0).details["reused_root_visits"] == []
+    )
+
+
+class GoalCountDouble:
+    """Stands in for the Domain in the execution rule: goal conjuncts true per state name."""
+
+    def __init__(self, counts: dict[str, int]) -> None:
+        self.counts = counts
+
+    def goal_atoms_true(self, state) -> int:
+        return self.counts.get(str(state), 0)
+
+
+def test_the_progress_rule_executes_the_best_action_that_leads_to_goal_progress() -> None:
+    """Root action 'a' has the higher Q but the tree knows no way on from it to a new goal
+    conjunct; 'b' leads (two steps down) to one: 'progress' executes 'b'; with neither
+    leading anywhere it executes nothing and the search goes on."""
+    from stalm.domain.outcome import Outcome
+    from stalm.planners.stalm import _best_promising_action
+    from stalm.search.tree import Edge
+    from tests.search.synthetic import drawn, move, state
+
+    s0, sa, sb, sg = state("s0"), state("sa"), state("sb"), state("sg")
+    tree = SearchTree(s0, [move("a"), move("b")])
+    ka, kb, kc = drawn("a", 1), drawn("b", 1), drawn("c", 1)
+    tree.add_kappa(s0, move("a"), ka, Outcome(sa, 0.0, True))
+    tree.add_kappa(s0, move("b"), kb, Outcome(sb, 0.0, True))
+    tree.add_node(sa, [])
+    tree.add_node(sb, [move("c")])
+    tree.add_kappa(sb, move("c"), kc, Outcome(sg, 3.0, True))
+    tree.backup([Edge(s0, move("a"), ka)], 5.0, 1.0, sa)
+    tree.backup([Edge(s0, move("b"), kb), Edge(sb, move("c"), kc)], -6.0, 1.0)
+    assert tree.node(s0).child(move("a")).q > tree.node(s0).child(move("b")).q
+    assert _best_promising_action(tree, GoalCountDouble({"sg": 1})) == kb
+    assert _best_promising_action(tree, GoalCountDouble({})) is None
+    # progress is counted against the root: a root that already has the conjunct gains nothing
+    assert _best_promising_action(tree, GoalCountDouble({"s0": 1, "sg": 1})) is None

@@ -85,3 +85,53 @@ def test_views_are_frozen_copies() -> None:
     stats = tree.stats()
     assert (stats.discrete_nodes, stats.continuous_nodes, stats.kappa_children) == (1, 1, 1)
     assert (stats.infeasible_children, stats.root_visits) == (0, 1)
+
+
+def test_a_subtree_keeps_the_statistics_of_every_node_the_new_root_reaches() -> None:
+    """Tree reuse: after executing s0 -a-> s1, s1's subtree is kept with its N and Q as they
+    were; the old root and the sibling branch it alone reached are dropped."""
+    s0, s1, s2, s3, s4 = (state(name) for name in ("s0", "s1", "s2", "s3", "s4"))
+    tree = SearchTree(s0, [move("a"), move("b")])
+    ka, kb = drawn("a", 1), drawn("b", 1)
+    tree.add_kappa(s0, move("a"), ka, feasible("s1", 3.0))
+    tree.add_kappa(s0, move("b"), kb, feasible("s2", 0.0))
+    tree.add_node(s1, [move("c"), move("back")])
+    tree.add_node(s2, [move("d")])
+    kc, kback = drawn("c", 1), drawn("back", 1)
+    tree.add_kappa(s1, move("c"), kc, feasible("s3", 1.0))
+    tree.add_kappa(s1, move("back"), kback, feasible("s0", 0.0))  # a cycle back to the root
+    tree.add_node(s3, [move("e")])
+    tree.add_kappa(s2, move("d"), drawn("d", 1), feasible("s4", 5.0))
+    tree.add_node(s4, [])
+    tree.backup([Edge(s0, move("a"), ka), Edge(s1, move("c"), kc)], 2.0, 0.5, s3)
+    tree.backup([Edge(s0, move("a"), ka), Edge(s1, move("back"), kback)], 0.0, 0.5)
+    tree.backup([Edge(s0, move("b"), kb), Edge(s2, move("d"), drawn("d", 1))], 0.0, 0.5, s4)
+    before = {s: tree.node(s) for s in (s0, s1, s3)}
+
+    reused = tree.subtree(s1)
+
+    assert reused.root == s1
+    # s0 is reachable from s1 (by 'back'), so it stays; s2 and s4 hang only off s0 -b->
+    # and are reachable too through s0: everything reachable from s1 is kept
+    assert set(reused.states()) == {s1, s3, s0, s2, s4}
+    for s, view in before.items():
+        assert reused.node(s) == view
+    assert reused.visits(s1) == 2
+    assert reused.node(s1).child(move("c")).q == pytest.approx(1.0 + 0.5 * 2.0)
+
+
+def test_a_subtree_drops_what_the_new_root_cannot_reach() -> None:
+    s0, s1, s2 = state("s0"), state("s1"), state("s2")
+    tree = SearchTree(s0, [move("a"), move("b")])
+    ka, kb = drawn("a", 1), drawn("b", 1)
+    tree.add_kappa(s0, move("a"), ka, feasible("s1", 0.0))
+    tree.add_kappa(s0, move("b"), kb, feasible("s2", 0.0))
+    tree.add_node(s1, [move("c")])
+    tree.add_node(s2, [move("d")])
+    tree.backup([Edge(s0, move("a"), ka)], 4.0, 1.0, s1)
+    reused = tree.subtree(s1)
+    assert list(reused.states()) == [s1]
+    assert reused.node(s1) == tree.node(s1)
+    assert s0 not in reused and s2 not in reused
+    with pytest.raises(KeyError):
+        tree.subtree(state("nowhere"))

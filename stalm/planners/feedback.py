@@ -1,0 +1,222 @@
+"""Geometric feedback (beyond the paper): failed Concretize steps as knowledge for the proposer.
+
+Concretize knows which step of which task plan ψ could not ground, why (``no_placement``,
+``arm_collision``, ``base_path_blocked``, ...) and what was in the way. Srivastava et al. (ICRA
+2014) turned exactly such failures into facts for the task planner; IDTMP scoped them to the
+context they were learned in. Here each failed step becomes a :class:`FailedStep`:
+
+* **facts** for a planner that reads PDDL: the bodies in the way become occlusion literals
+  (``PickOccludedBy(o, b)``, ``PlaceOccludedBy(o, dir, ref, b)``), cleared in the PDDL by
+  picking ``b`` as any occlusion is; a failure with nobody to blame becomes
+  ``PickFailed(o, r)`` or ``PlaceFailed(o, dir, ref, r)`` with ``r`` the region concerned, and
+  ``PlaceFailed(o, on, r, r)`` also rules out every relative placement on ``r`` (no room for
+  ``o`` anywhere on ``r``). They hold while ``r`` is untouched: picking another object
+  from ``r`` may make room, and clears them; picking ``o`` itself does not (it cannot make
+  room for itself), so ``o`` is not put back where it did not fit
+  (:func:`stalm.llm.pddl.domain_pddl` with ``feedback``);
+* **text** for a language model: the plan, the failed step and the transition's reason, in the
+  Iterative-Replanning feedback's words (:mod:`stalm.llm.feedback_prompt`);
+* a **rule** for a placement that found no free spot beside movable objects on its region
+  (P5's cans after the grill): ``Forbids``/``Needs`` facts rule it out while those objects
+  are on the region, wherever exactly. That is a generalisation from one draw of their
+  poses, so the proposer drops such rules when they leave no plan;
+* a **support**: the poses of the objects and the door states the failure depended on. A step
+  learned in one state holds in any state where every supporting object still sits where it
+  sat and no door it saw closed is open (objects added elsewhere and closed doors only add
+  obstacles); once the part of the state it was about changes, it no longer applies.
+
+Symbolic failures (a false precondition) teach nothing the PDDL does not already know, and
+are not kept.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+from stalm.domain.actions import DiscreteAction, Open, Pick, Place
+from stalm.domain.outcome import Infeasibility
+from stalm.llm.feedback_prompt import FailedPlan
+from stalm.predicates.literals import GroundLiteral
+from stalm.search.concretize import ConcretePlan
+from stalm.search.transition import PRECONDITION
+from stalm.world.problem import Problem
+from stalm.world.relations import region_of
+from stalm.world.state import ObjectPose, State
+
+FAILED_PICK = "PickFailed"
+FAILED_PLACE = "PlaceFailed"
+
+
+@dataclass(frozen=True)
+class FailedStep:
+    """One task-plan step ψ found infeasible, what it teaches and where that holds.
+
+    ``plan`` is the task plan it belonged to (for the language model's feedback), ``step`` the
+    index of the failed action in it; ``facts`` are the PDDL literals it adds; ``support`` the
+    poses (and ``open_doors`` the door states) the failure depended on.
+    """
+
+    plan: tuple[DiscreteAction, ...]
+    step: int
+    failure: Infeasibility
+    facts: tuple[GroundLiteral, ...]
+    support: tuple[tuple[str, ObjectPose], ...]
+    open_doors: frozenset[str]
+    forbids: tuple[str, str, str, str] | None = None
+    """A placement (object, direction, reference, region) that found no free spot beside
+    movable objects: ruled out symbolically while every one of ``besides`` is on the region,
+    wherever exactly (a generalisation: the proposer drops it if it leaves no plan)."""
+    besides: tuple[str, ...] = ()
+
+    @property
+    def action(self) -> DiscreteAction:
+        return self.plan[self.step]
+
+    def holds_in(self, state: State) -> bool:
+        """True while every supporting object is where it was and no door that was closed has
+        been opened. Extra objects and closed doors only add obstacles, so a step that failed
+        with fewer of them fails with more: a failure learned with the door open (deep in a
+        plan) holds at a root where it is still closed, not the other way round."""
+        if not state.open_doors <= self.open_doors:
+            return False
+        return all(state.has_pose(obj) and state.pose(obj) == pose for obj, pose in self.support)
+
+    def as_failed_plan(self) -> FailedPlan:
+        """The Iterative-Replanning feedback form: the plan, its failed step and why."""
+        return FailedPlan(self.plan, "lack_of_3d_understanding", str(self.failure), self.step)
+
+
+def failed_steps(problem: Problem, plans: Iterable[ConcretePlan]) -> tuple[FailedStep, ...]:
+    """The geometric failures among Concretize's ``plans``, one per failed plan."""
+    learned: list[FailedStep] = []
+    for plan in plans:
+        if plan.failed_step is None:
+            continue
+        step = plan.steps[-1]  # Concretize stops a plan at its infeasible step
+        why = step.kappa if isinstance(step.kappa, Infeasibility) else step.outcome.failure
+        if why is None or why.kind == PRECONDITION:
+            continue
+        facts, support = _facts_and_support(problem, step.state, step.action, why)
+        forbids, besides = _crowded_placement(problem, step.state, step.action, why)
+        if forbids is not None:
+            facts = ()
+            refs = [forbids[2]] if step.state.has_pose(forbids[2]) else []
+            support = tuple((n, step.state.pose(n)) for n in refs)
+        learned.append(
+            FailedStep(
+                plan=plan.task_plan.actions,
+                step=plan.failed_step,
+                failure=why,
+                facts=facts,
+                support=support,
+                open_doors=step.state.open_doors,
+                forbids=forbids,
+                besides=besides,
+            )
+        )
+    return tuple(learned)
+
+
+def _facts_and_support(
+    problem: Problem, state: State, action: DiscreteAction, why: Infeasibility
+) -> tuple[tuple[GroundLiteral, ...], tuple[tuple[str, ObjectPose], ...]]:
+    spec = problem.spec
+    movables = {obj.name for obj in spec.objects}
+    doors = {door.name for door in spec.doors}
+
+    def poses(names: Iterable[str]) -> tuple[tuple[str, ObjectPose], ...]:
+        return tuple(sorted((n, state.pose(n)) for n in set(names) if state.has_pose(n)))
+
+    def resting_on(region: str | None, but: str) -> set[str]:
+        if region is None:
+            return set()
+        return {n for n in state.object_names if n != but and region_of(spec, state, n) == region}
+
+    if isinstance(action, Pick):
+        blockers = sorted(b for b in why.blockers if b != action.obj and b in movables | doors)
+        if blockers:
+            facts = tuple(GroundLiteral("PickOccludedBy", (action.obj, b)) for b in blockers)
+            return facts, poses([action.obj, *blockers])
+        region = region_of(spec, state, action.obj)
+        if region is None:
+            return (), poses([action.obj])
+        return (GroundLiteral(FAILED_PICK, (action.obj, region)),), poses(
+            resting_on(region, "") | {action.obj}
+        )
+    if isinstance(action, Place):
+        args = (action.obj, action.direction, action.ref)
+        blockers = sorted(b for b in why.blockers if b != action.obj and b in movables | doors)
+        if blockers and why.kind != "no_placement":
+            # the arm or the base is in the way: moving the blocker may clear it
+            facts = tuple(GroundLiteral("PlaceOccludedBy", (*args, b)) for b in blockers)
+            refs = [action.ref] if action.ref in movables else []
+            return facts, poses([*blockers, *refs])
+        # no free spot: the region is too crowded for it (whoever the spots collided with)
+        region = action.ref if action.direction == "on" else region_of(spec, state, action.ref)
+        if region is None:
+            return (), ()
+        support = resting_on(region, action.obj)
+        return (GroundLiteral(FAILED_PLACE, (*args, region)),), poses(support)
+    assert isinstance(action, Open)
+    return (), poses(n for n in why.blockers if n in movables)
+
+
+def _crowded_placement(
+    problem: Problem, state: State, action: DiscreteAction, why: Infeasibility
+) -> tuple[tuple[str, str, str, str] | None, tuple[str, ...]]:
+    """A placement with no free spot whose samples hit movable objects on the region: the
+    symbolic rule 'not there while those objects are there' (P5's cans after the grill)."""
+    if not isinstance(action, Place) or why.kind != "no_placement":
+        return None, ()
+    spec = problem.spec
+    region = action.ref if action.direction == "on" else region_of(spec, state, action.ref)
+    if region is None:
+        return None, ()
+    besides = tuple(
+        sorted(
+            b
+            for b in why.blockers
+            if b != action.obj and state.has_pose(b) and region_of(spec, state, b) == region
+        )
+    )
+    if not besides:
+        return None, ()
+    return (action.obj, action.direction, action.ref, region), besides
+
+
+@dataclass
+class FeedbackMemory:
+    """Every failed step learned in one trial; :meth:`holding_in` gives what applies now.
+
+    Steps are never forgotten, only filtered by their support, so a step learned before the
+    robot moved an object applies again if the object comes back. Duplicates (the same action
+    failing again for the same reason in the same context) are kept once.
+    """
+
+    steps: list[FailedStep]
+
+    @staticmethod
+    def empty() -> FeedbackMemory:
+        return FeedbackMemory([])
+
+    def learn(self, new: Sequence[FailedStep]) -> int:
+        """Add ``new`` steps; returns how many were not known yet."""
+        known = {_key(s) for s in self.steps}
+        added = 0
+        for step in new:
+            key = _key(step)
+            if key not in known:
+                known.add(key)
+                self.steps.append(step)
+                added += 1
+        return added
+
+    def holding_in(self, state: State) -> tuple[FailedStep, ...]:
+        return tuple(step for step in self.steps if step.holds_in(state))
+
+
+def _key(step: FailedStep) -> tuple[object, ...]:
+    if step.forbids is not None:  # the symbolic rule, whatever the exact poses were
+        return (step.forbids, step.besides, step.support)
+    return (step.action, step.facts, step.support, step.open_doors)
