@@ -46,8 +46,12 @@ class PlannerConfig:
     execution: str = "progress"
     """What an online tree planner executes without a goal plan: 'progress' (search on
     while nothing promises progress) or 'best_q' (the authors' rule)."""
-    kappa_tries: int = 1
-    """κ draws per task-plan step in Concretize (Algorithm 2: 1)."""
+    kappa_tries: int = 3
+    """κ draws per task-plan step in Concretize: the authors' 3 (Algorithm 2 draws 1; with
+    one, OPEN's single try fails a third of the task plans at their first step)."""
+    backtracks: int | None = None
+    """Concretize re-draws a placement whose object blocks a later step at most this many
+    times per plan; None: 6 with geometric feedback, 0 without (Algorithm 2)."""
     goal_atom_lost: float = 3.0
     """Reward taken back when an action makes a goal conjunct false (0: the authors')."""
     goal_relations_only: bool = True
@@ -73,6 +77,7 @@ SETTABLE: dict[str, type] = {
     "reuse_tree": bool,
     "execution": str,
     "kappa_tries": int,
+    "backtracks": int,
     "goal_atom_lost": float,
     "goal_relations_only": bool,
     "sims": int,
@@ -164,6 +169,9 @@ def _stalm_like(name: str) -> Builder:
             feedback=feedback and not uct_only,
             execution=config.execution,  # type: ignore[arg-type]
             kappa_tries=config.kappa_tries,
+            backtracks=config.backtracks
+            if config.backtracks is not None
+            else (6 if feedback else 0),
             rewards=RewardSettings(goal_atom_lost=config.goal_atom_lost),
             # the symbolic proposer plans with occlusions whatever the prompt options say
             occlusion_predicates=(

@@ -31,6 +31,7 @@ from typing import Literal, cast
 
 import numpy as np
 
+from stalm.domain.actions import DiscreteAction
 from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
 from stalm.errors import StalmError
@@ -90,6 +91,9 @@ class StalmSettings:
     goal conjuncts than the root has, searching on (within ``step_share``) while none does."""
     kappa_tries: int = 1
     """κ draws per task-plan step in Concretize (Algorithm 2: 1; the authors' code: 3)."""
+    backtracks: int = 0
+    """Concretize draws a placement again when an object the plan put down is in the way of a
+    later step, at most this many times per plan (0: Algorithm 2)."""
     rewards: RewardSettings = field(default_factory=RewardSettings)
     """R's constants (§4.1, with the potential-based −3 of the research notes)."""
     occlusion_predicates: bool = True
@@ -159,6 +163,7 @@ class StalmPlanner:
                 "feedback": self.settings.feedback,
                 "execution": self.settings.execution,
                 "kappa_tries": self.settings.kappa_tries,
+                "backtracks": self.settings.backtracks,
                 "goal_atom_lost": self.settings.rewards.goal_atom_lost,
             },
             "proposals": trial.proposals,
@@ -241,6 +246,7 @@ class _Trial:
         predicates = episode.predicates(self.engine)
         share_end = self._share_end()
         plans: list[ConcretePlan] = []
+        tried: set[tuple[DiscreteAction, ...]] = set()
         for round_ in range(self.settings.feedback_rounds if self.settings.feedback else 1):
             feedback = self.memory.holding_in(state) if self.settings.feedback else ()
             planner._say(f"step {done}: asking {proposer.name} for task plans")
@@ -281,6 +287,7 @@ class _Trial:
                 depth0=done,
                 horizon=episode.problem.horizon,
                 kappa_tries=self.settings.kappa_tries,
+                backtracks=self.settings.backtracks,
             )
             episode.clock.concretize += time.monotonic() - tick
             episode.count_failures(concrete)
@@ -291,7 +298,11 @@ class _Trial:
                 break
             learned = self.memory.learn(failed_steps(episode.problem, concrete.plans))
             self._record_round(done, round_, concrete, learned)
-            if learned == 0 or time.monotonic() >= share_end:
+            fresh = {plan.task_plan.actions for plan in concrete.plans} - tried
+            tried |= fresh
+            # ask again while the proposer still comes up with plans not tried in this step
+            # (a lesson learned, or a different draw failing where no lesson could be drawn)
+            if not fresh or time.monotonic() >= share_end:
                 break
         return plans, None
 

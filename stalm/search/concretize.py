@@ -29,7 +29,7 @@ from typing import Literal
 
 import numpy as np
 
-from stalm.domain.actions import DiscreteAction
+from stalm.domain.actions import DiscreteAction, Place
 from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action
 from stalm.search.mdp import SearchMDP
@@ -141,20 +141,26 @@ def concretize(
     depth0: int = 0,
     horizon: int = 20,
     kappa_tries: int = 1,
+    backtracks: int = 0,
 ) -> ConcretizeResult:
     """Ground ``task_plans`` from ``state`` (episode depth ``depth0``, horizon H = ``horizon``).
 
     ``kappa_tries`` κ draws per step before the step counts as infeasible: 1 in Algorithm 2
     (ψ itself makes the operator's number of tries), 3 in the authors' code. A symbolic
     precondition failure is final on the first draw. Every draw is paid for by ψ; only the
-    last one becomes the step (and the tree's κ child).
+    last one becomes the step (and the tree's κ child). ``backtracks`` (beyond the paper, 0
+    in Algorithm 2): when a step fails because an object this plan put down is in the way,
+    that placement is drawn again and the plan goes on from there, at most this many times
+    per plan; only the last attempt's steps are kept.
     """
     if kappa_tries < 1:
         raise ValueError(f"kappa_tries must be at least 1, got {kappa_tries}")
     counting = CountingMDP(mdp)
     plans: list[ConcretePlan] = []
     for index, task_plan in enumerate(task_plans):
-        plan = _concretize_one(counting, state, index, task_plan, rng, depth0, horizon, kappa_tries)
+        plan = _concretize_one(
+            counting, state, index, task_plan, rng, depth0, horizon, kappa_tries, backtracks
+        )
         plans.append(plan)
         if plan.reached_goal:
             return ConcretizeResult(True, tuple(plans), plan.actions, counting.counts())
@@ -170,15 +176,19 @@ def _concretize_one(
     depth0: int,
     horizon: int,
     kappa_tries: int = 1,
+    backtracks: int = 0,
 ) -> ConcretePlan:
     if not task_plan.actions:
         reason = task_plan.unparseable or "the task plan is empty"
         return ConcretePlan(index, task_plan, (), False, "unparseable", reason)
+    actions = task_plan.actions
     steps: list[ConcreteStep] = []
     state = start
-    depth = depth0
-    for position, action in enumerate(task_plan.actions):
-        if depth >= horizon:
+    position = 0
+    done = 0  # backtracks so far
+    while position < len(actions):
+        action = actions[position]
+        if depth0 + position >= horizon:
             detail = f"the horizon H = {horizon} stopped the plan after {position} step(s)"
             failure: FailureKind = "partially_achieved_goal"
             return ConcretePlan(
@@ -191,9 +201,16 @@ def _concretize_one(
             kappa = draw(mdp, state, action, rng)
         outcome = apply(mdp, state, kappa)
         steps.append(ConcreteStep(state, action, kappa, outcome))
-        depth += 1
         if isinstance(kappa, Infeasibility) or not outcome.feasible:
             why = kappa if isinstance(kappa, Infeasibility) else outcome.failure
+            redo = _placement_to_redo(steps, why, done) if done < backtracks else None
+            if redo is not None:
+                # an object this plan put down is in the way: draw that placement again
+                done += 1
+                state = steps[redo].state
+                del steps[redo:]
+                position = redo
+                continue
             kind: FailureKind = (
                 "precondition_violation"
                 if why is not None and why.kind == PRECONDITION
@@ -206,5 +223,24 @@ def _concretize_one(
         if outcome.goal_reached:
             return ConcretePlan(index, task_plan, tuple(steps), True, None)
         state = outcome.state
+        position += 1
     detail = f"all {len(steps)} step(s) are feasible but the goal does not hold"
     return ConcretePlan(index, task_plan, tuple(steps), False, "partially_achieved_goal", detail)
+
+
+def _placement_to_redo(
+    steps: Sequence[ConcreteStep], why: Infeasibility | None, done: int
+) -> int | None:
+    """An earlier step of this plan that put down an object the failure names as in the way
+    (P5: the cans drawn at the front of the counter the grill must go on), or None. The
+    ``done``-th backtrack takes the candidates in turn, latest first, so every named object's
+    placement gets drawn again, not just the last one's."""
+    if why is None or why.kind == PRECONDITION or not why.blockers:
+        return None
+    candidates = [
+        position
+        for position in range(len(steps) - 2, -1, -1)
+        if isinstance(steps[position].action, Place)
+        and getattr(steps[position].action, "obj", None) in why.blockers
+    ]
+    return candidates[done % len(candidates)] if candidates else None

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility
 from stalm.search.concretize import TaskPlan, concretize
 from tests.search.synthetic import drawn, move, plan, state, warm_chain
@@ -86,3 +87,42 @@ def test_an_empty_plan_is_unparseable() -> None:
 def test_unparseable_plans_carry_no_actions() -> None:
     with pytest.raises(ValueError, match="unparseable"):
         TaskPlan((move("a"),), "garbled")
+
+
+P5_GRILL_LAST = (
+    Open("kitchen_door"),
+    Pick("sprite"),
+    Place("sprite", "on", "counter1"),
+    Pick("beef_grill"),
+    Place("beef_grill", "on", "counter3"),
+    Pick("coke"),
+    Place("coke", "on", "counter1"),
+    Pick("beef_grill"),
+    Place("beef_grill", "on", "counter1"),
+)
+
+
+def test_backtracking_draws_again_the_placement_of_a_can_that_blocks_the_grill(
+    domain_factory,
+) -> None:
+    """P5 with the grill last: with seed 0 one draw per step leaves a can at the front of
+    counter1 and the grill finds no room; drawing the cans' placements again solves it."""
+    domain = domain_factory("P5")
+    root = domain.problem.initial_state
+    plain = concretize(
+        domain, root, [TaskPlan(P5_GRILL_LAST)], np.random.default_rng(0), kappa_tries=3
+    )
+    failed = plain.plans[0]
+    assert not plain.success and failed.failed_step == 8
+    assert {"coke", "sprite"} & set(failed.steps[-1].kappa.blockers)  # type: ignore[union-attr]
+    redone = concretize(
+        domain,
+        root,
+        [TaskPlan(P5_GRILL_LAST)],
+        np.random.default_rng(0),
+        kappa_tries=3,
+        backtracks=6,
+    )
+    assert redone.success and len(redone.plans[0].steps) == len(P5_GRILL_LAST)
+    assert redone.counts.samples > plain.counts.samples
+    assert [step.action for step in redone.plans[0].steps] == list(P5_GRILL_LAST)
