@@ -92,6 +92,12 @@ def experiment_command(
     )
     specs = trial_specs(plan)
     log = ResultsLog(results or Path("results") / f"{name}.jsonl")
+    if log.set_aside is not None:
+        console.print(
+            f"[yellow]warning:[/] {escape(str(log.path))}: moved its partial last line to "
+            f"{escape(str(log.set_aside))}",
+            highlight=False,
+        )
     loaded = log.load()
     for problem in loaded.problems:
         console.print(f"[yellow]warning:[/] {problem}", highlight=False)

@@ -280,9 +280,7 @@ def test_a_hanging_server_is_cut_at_the_deadline(
 
 def test_a_slow_stream_is_cut_at_the_deadline(scripted_server: ScriptedHTTPServerDouble) -> None:
     # headers at once, then the body one byte every 0.1 s: each read is quick, the whole is not
-    scripted_server.script = [
-        ScriptedReply(body=chat_completion(["x" * 200]), chunk_delay_s=0.1)
-    ]
+    scripted_server.script = [ScriptedReply(body=chat_completion(["x" * 200]), chunk_delay_s=0.1)]
     backend = make(scripted_server, timeout_s=20.0)
     started = time.monotonic()
     response = backend.complete(_deadline_request(1.0))
