@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from stalm.cli.main import app
+from stalm.cli.paths import check_output_file
 from stalm.errors import StalmError
 from stalm.world.problem import Problem, available_problems, load_problem
 from stalm.world.state import State
@@ -81,6 +82,7 @@ def render_command(
     from stalm.viz.render import save_render
     from stalm.world.scene import Sim
 
+    check_output_file(output, "--output")
     loaded = load_problem(problem)
     state = loaded.initial_state
     if state_file is not None:
@@ -94,7 +96,7 @@ def read_state_file(path: Path) -> State:
     """A State from a JSON file (a bare State, or any JSON object with a 'state' field)."""
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as error:
+    except (OSError, ValueError) as error:  # ValueError: not UTF-8, not JSON
         raise StalmError(f"{path}: cannot read a State from it ({error})") from None
     if isinstance(data, dict) and "state" in data:
         data = data["state"]

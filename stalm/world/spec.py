@@ -312,6 +312,11 @@ def load_problem_file(path: Path) -> ProblemSpec:
         text = path.read_text(encoding="utf-8")
     except OSError as error:
         raise StalmError(f"{path}: cannot read problem file ({error.strerror})") from None
+    except UnicodeDecodeError as error:
+        raise StalmError(
+            f"{path}: not a problem file (not UTF-8 text: byte {error.object[error.start]:#04x} "
+            f"at offset {error.start})"
+        ) from None
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as error:
