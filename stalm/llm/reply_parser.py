@@ -515,8 +515,8 @@ def parse_reply(text: str, vocabulary: Vocabulary) -> ParsedReply:
     if len(text) > MAX_REPLY_CHARS:
         parsed = parse_reply(text[:MAX_REPLY_CHARS], vocabulary)
         cut = f"only the first {MAX_REPLY_CHARS} of the reply's {len(text)} characters were read"
-        reason = cut if parsed.reason is None else f"{parsed.reason}; {cut}"
-        return ParsedReply(parsed.plan, parsed.steps, parsed.errors, reason)
+        why = cut if parsed.reason is None else f"{parsed.reason}; {cut}"
+        return ParsedReply(parsed.plan, parsed.steps, parsed.errors, why)
     chosen = _choose_list(text)
     if chosen is None:
         return ParsedReply((), (), (), "no plan list (plan = [...]) in the reply")
