@@ -3,8 +3,9 @@
 Replies, server messages, problem files and result files are not ours: printed through Rich,
 a ``[/]`` or ``[bold]`` in them is read as markup (a MarkupError crash, or bracketed text
 silently dropped), and an escape code in them would drive the user's terminal. Every such
-text goes through :func:`shown` (for Rich, which also escapes markup) or :func:`printable`
-(for plain output) before it is printed; stalm's own markup around it stays live.
+text goes through :func:`shown` (for Rich, which also escapes markup), :func:`printable`
+(for plain output) or :func:`json_printable` (for JSON) before it is printed; stalm's own
+markup around it stays live.
 """
 
 from __future__ import annotations
@@ -26,6 +27,12 @@ def printable(text: object) -> str:
 def shown(text: object) -> str:
     """:func:`printable` text with Rich markup escaped: safe inside a Rich markup string."""
     return escape(printable(text))
+
+
+def json_printable(encoded: str) -> str:
+    """JSON text with every control character as a ``\\uXXXX`` escape (still valid JSON,
+    decoding to the same strings: JSON text has such characters only inside strings)."""
+    return _CONTROL.sub(lambda match: f"\\u{ord(match.group()):04x}", encoded)
 
 
 def _visible(match: re.Match[str]) -> str:

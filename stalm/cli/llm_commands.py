@@ -13,6 +13,7 @@ import typer
 from rich.console import Console
 from rich.panel import Panel
 
+from stalm.cli.display import shown
 from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.backends import SPEC_ENV, SPEC_HELP, LLMRequest, make_backend
 from stalm.llm.constraints import build_constraint
@@ -71,10 +72,10 @@ def check(
     """Show the configured backend and model, then time one short answer."""
     console = Console()
     backend = make_backend(llm)
-    console.print(f"[bold]backend[/]: {backend.name}")
-    console.print(f"[bold]model[/]:   {backend.model}")
+    console.print(f"[bold]backend[/]: {shown(backend.name)}", highlight=False)
+    console.print(f"[bold]model[/]:   {shown(backend.model)}", highlight=False)
     notice_style = "yellow" if backend.name == "embedded" else "blue"
-    console.print(Panel(backend.description, border_style=notice_style, title="about"))
+    console.print(Panel(shown(backend.description), border_style=notice_style, title="about"))
     if constrained:
         request = LLMRequest(
             system=_CONSTRAINED_SYSTEM,
@@ -97,10 +98,10 @@ def check(
     with console.status("asking the model..."):
         response = backend.complete(request)
     reply = response.replies[0]
-    console.print(Panel(reply.text.strip() or "(empty reply)", title="reply"))
+    console.print(Panel(shown(reply.text.strip()) or "(empty reply)", title="reply"))
     rate = reply.completion_tokens / reply.latency_s if reply.latency_s > 0 else 0.0
     console.print(
         f"latency {reply.latency_s:.2f} s | prompt tokens {reply.prompt_tokens} | "
         f"completion tokens {reply.completion_tokens} | {rate:.1f} tokens/s | "
-        f"finish: {reply.finish_reason or '?'}"
+        f"finish: {shown(reply.finish_reason or '?')}"
     )

@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 from rich.console import Console
 
+from stalm.cli.display import printable
 from stalm.cli.main import app
 from stalm.cli.text_commands import format_parsed_reply_json, format_prompt, parse_reply_file
 from stalm.cli.world_commands import read_state_file
@@ -53,7 +54,7 @@ def predicates_command(
         typer.echo(json.dumps([list(lit.as_tuple()) for lit in literals], indent=1))
         return
     for literal in literals:
-        typer.echo(str(literal))
+        typer.echo(printable(literal))
     typer.echo(f"# {len(literals)} literals", err=True)
 
 
@@ -76,7 +77,7 @@ def prompt_command(
         literals = [
             lit for lit in literals if lit.name not in ("PickOccludedBy", "PlaceOccludedBy")
         ]
-    typer.echo(format_prompt(problem_prompt(loaded, literals, options)))
+    typer.echo(printable(format_prompt(problem_prompt(loaded, literals, options))))
 
 
 @app.command("parse-reply")

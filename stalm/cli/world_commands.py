@@ -10,6 +10,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from stalm.cli.display import shown
 from stalm.cli.main import app
 from stalm.cli.paths import check_output_file
 from stalm.errors import StalmError
@@ -22,13 +23,14 @@ console = Console()
 def _problem_row(problem: Problem) -> tuple[str, ...]:
     spec = problem.spec
     goal = ", ".join(str(g) for g in problem.goal)
-    return (
+    cells = (
         spec.name,
         ", ".join(r.name for r in spec.regions),
         ", ".join(o.name for o in spec.objects),
         str(spec.placement_count),
         goal,
     )
+    return tuple(shown(cell) for cell in cells)
 
 
 @app.command("problems")
@@ -89,7 +91,7 @@ def render_command(
         state = read_state_file(state_file)
     with Sim(loaded.spec) as sim:
         save_render(sim, state, output, size)
-    console.print(f"wrote {output}")
+    console.print(f"wrote {shown(output)}", highlight=False)
 
 
 def read_state_file(path: Path) -> State:
