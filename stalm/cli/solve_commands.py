@@ -17,7 +17,7 @@ from stalm.cli.paths import check_output_file, write_or_fall_back
 from stalm.domain.params import PickParams, PlaceParams
 from stalm.errors import StalmError
 from stalm.planners.base import PlanResult
-from stalm.world.problem import load_problem
+from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
 
 console = Console(stderr=True)
 out = Console()
@@ -186,6 +186,7 @@ def solve_command(
             if json_out is not None:
                 failed = {
                     "problem": loaded.name,
+                    PROBLEM_HASH_FIELD: loaded.content_hash,
                     "planner": entry.name,
                     "seed": seed,
                     "success": False,
@@ -199,7 +200,8 @@ def solve_command(
     _print_result(result)
     fallback: Path | None = None
     if json_out is not None:
-        written = write_result_json(result.to_json(), json_out)
+        data = {**result.to_json(), PROBLEM_HASH_FIELD: loaded.content_hash}
+        written = write_result_json(data, json_out)
         out.print(f"wrote {shown(written)}", highlight=False)
         fallback = written if written != json_out else None
     if gif is not None:
@@ -251,6 +253,8 @@ def replay_command(
         raise StalmError(f"{result_file}: not a stalm result (not a JSON object)")
     loaded = load_problem(problem or str(data.get("problem", "")))
     report = replay_result_json(loaded, data)
+    for warning in report.warnings:
+        console.print(f"[yellow]warning:[/] {shown(warning)}", highlight=False)
     if report.reached_goal:
         out.print(f"[green]replayed {report.steps_executed} actions: the goal is reached[/]")
     elif report.failed_step is not None:
