@@ -155,6 +155,10 @@ def solve_command(
         if path is not None:
             check_output_file(path, option)
     loaded = load_problem(problem)
+    from stalm.motion.problem_check import check_problem_geometry
+
+    with console.status(f"checking {shown(loaded.name)}'s scene..."):
+        check_problem_geometry(loaded)  # before the clock starts: a bad file fails at once
     if no_uct:
         planner_name = "stalm-no-uct"
     entry = planner_entry(planner_name)

@@ -39,6 +39,14 @@ def problems_command(
         list[Path] | None, typer.Option("--file", "-f", help="List these problem files instead.")
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
+    check: Annotated[
+        bool | None,
+        typer.Option(
+            "--check/--no-check",
+            help="Also check the scene in the simulator: nothing starts inside anything, every "
+            "standing pose is free and reachable (default: on for --file).",
+        ),
+    ] = None,
 ) -> None:
     """List the problems: regions, objects, placement count n(R) + 4 n(O), and goals."""
     problems = (
@@ -46,6 +54,12 @@ def problems_command(
         if file
         else [load_problem(p) for p in available_problems()]
     )
+    if check if check is not None else bool(file):
+        from stalm.motion.problem_check import check_problem_geometry
+
+        with console.status("checking the scenes in the simulator..."):
+            for problem in problems:
+                check_problem_geometry(problem)
     if as_json:
         rows = [
             {
