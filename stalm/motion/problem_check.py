@@ -83,8 +83,8 @@ def problem_geometry_faults(problem: Problem, settings: RoadmapSettings | None =
     start = roadmap.anchor_index(*spec.robot.base[:2])
     reached = _reachable(roadmap, start) if start is not None else set()
     for where, pose in _standing_poses(problem):
-        index = roadmap.anchor_index(pose[0], pose[1])
-        if index is None or index not in reached:
+        anchor = roadmap.anchor_index(pose[0], pose[1])
+        if anchor is None or anchor not in reached:
             faults.append(
                 f"{where}: the base cannot drive there from the robot's start "
                 "(no roadmap path, even with every door open)"
