@@ -34,7 +34,9 @@ def compute_literals(problem: Problem, state_file: Path | None) -> list[GroundLi
     from stalm.predicates.engine import PredicateEngine
     from stalm.world.scene import Sim
 
-    state = read_state_file(state_file) if state_file is not None else problem.initial_state
+    state = (
+        read_state_file(state_file, problem) if state_file is not None else problem.initial_state
+    )
     with Sim(problem.spec) as sim, console.status("computing predicates (motion planning)..."):
         engine = PredicateEngine(problem, sim, BasePlanner(sim))
         cache = engine.compute(state)

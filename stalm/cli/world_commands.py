@@ -102,21 +102,30 @@ def render_command(
     loaded = load_problem(problem)
     state = loaded.initial_state
     if state_file is not None:
-        state = read_state_file(state_file)
+        state = read_state_file(state_file, loaded)
     with Sim(loaded.spec) as sim:
         save_render(sim, state, output, size)
     console.print(f"wrote {shown(output)}", highlight=False)
 
 
-def read_state_file(path: Path) -> State:
-    """A State from a JSON file (a bare State, or any JSON object with a 'state' field)."""
+def read_state_file(path: Path, problem: Problem | None = None) -> State:
+    """A State from a JSON file (a bare State, or any JSON object with a 'state' field).
+
+    With ``problem``, the State must hold exactly the problem's objects and only its doors,
+    so the simulator is never asked to place a body it does not have.
+    """
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as error:  # ValueError: not UTF-8, not JSON
+    except (OSError, ValueError, RecursionError) as error:  # not UTF-8, not JSON, too deep
         raise StalmError(f"{path}: cannot read a State from it ({error})") from None
     if isinstance(data, dict) and "state" in data:
         data = data["state"]
     try:
-        return State.from_json(data)
-    except (KeyError, TypeError, ValueError, AssertionError) as error:
-        raise StalmError(f"{path}: not a State ({error!r})") from None
+        state = State.from_json(data)
+    except (KeyError, TypeError, ValueError, OverflowError) as error:
+        raise StalmError(f"{path}: not a State ({error})") from None
+    if problem is not None:
+        why = problem.state_mismatch(state)
+        if why is not None:
+            raise StalmError(f"{path}: not a State of {problem.name}: {why}")
+    return state

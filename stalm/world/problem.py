@@ -52,6 +52,21 @@ class Problem:
     def horizon(self) -> int:
         return self.spec.horizon
 
+    def state_mismatch(self, state: State) -> str | None:
+        """Why ``state`` cannot be a State of this problem (other objects or doors), or None."""
+        objects = {obj.name for obj in self.spec.objects}
+        have = set(state.object_names)
+        if have != objects:
+            extra, missing = sorted(have - objects), sorted(objects - have)
+            parts = [f"unknown objects {extra}"] if extra else []
+            parts += [f"missing objects {missing}"] if missing else []
+            return "; ".join(parts)
+        doors = {door.name for door in self.spec.doors}
+        unknown = sorted(set(state.open_doors) - doors)
+        if unknown:
+            return f"unknown doors {unknown}"
+        return None
+
     @cached_property
     def content_hash(self) -> str:
         """A digest of the validated problem (not of its file: comments, layout and key order

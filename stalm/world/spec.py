@@ -416,8 +416,45 @@ def load_problem_file(path: Path) -> ProblemSpec:
             f"{path}: not a problem file (not UTF-8 text: byte {error.object[error.start]:#04x} "
             f"at offset {error.start})"
         ) from None
+    if len(text) > MAX_PROBLEM_FILE_CHARS:
+        raise StalmError(
+            f"{path}: a problem file of {len(text)} characters is too long "
+            f"(at most {MAX_PROBLEM_FILE_CHARS})"
+        )
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=_LOADER)  # a safe loader (libyaml's when available)
     except yaml.YAMLError as error:
         raise StalmError(f"{path}: not valid YAML: {error}") from None
+    except (ValueError, OverflowError, RecursionError) as error:  # e.g. date 2001-02-30
+        raise StalmError(f"{path}: not valid YAML: {type(error).__name__}: {error}") from None
+    problem = _shared_or_huge(data)
+    if problem is not None:
+        raise StalmError(f"{path}: {problem}")
     return parse_problem(data, str(path))
+
+
+MAX_PROBLEM_FILE_CHARS = 1_000_000
+"""The six problems are 3 to 6 kB; a file a thousand times larger is not a problem file."""
+
+
+_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+"""libyaml's safe loader is fast and limits nesting; the pure-Python one recurses for seconds."""
+MAX_PROBLEM_NODES = 100_000
+
+
+def _shared_or_huge(data: object) -> str | None:
+    """Why loaded YAML is no problem file: too many values once aliases are expanded (a few
+    lines of nested ``*name`` aliases stand for billions of values, or a cycle for infinitely
+    many, and would validate for hours). The six problems hold about a thousand."""
+    stack = [data]
+    count = 0
+    while stack:
+        node = stack.pop()
+        count += 1
+        if count > MAX_PROBLEM_NODES:
+            return f"more than {MAX_PROBLEM_NODES} values (aliases expanded): not a problem file"
+        if isinstance(node, dict):
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
+    return None

@@ -146,7 +146,10 @@ def test_binary_problem_state_result_and_reply_files(monkeypatch, capsys, tmp_pa
     assert str(problem) in one_error_line(capsys.readouterr().err)
     state = tmp_path / "state.json"
     state.write_bytes(BINARY)
-    assert run_cli(monkeypatch, "render", "P2", "--state", str(state), "-o", "x.png") == 2
+    assert (
+        run_cli(monkeypatch, "render", "P2", "--state", str(state), "-o", str(tmp_path / "x.png"))
+        == 2
+    )
     assert str(state) in one_error_line(capsys.readouterr().err)
     assert run_cli(monkeypatch, "replay", str(state)) == 2
     assert str(state) in one_error_line(capsys.readouterr().err)
@@ -175,3 +178,28 @@ def test_a_truncated_roadmap_cache_file_is_rebuilt(tmp_path, monkeypatch, proble
         np.savez(path, nodes=nodes, edges=np.array([[0, 7]]), anchors=np.zeros((1, 2)))
         again = load_or_build_roadmap(sim, frozenset(), settings)
         assert again.adjacency == first.adjacency
+
+
+@pytest.mark.parametrize(
+    ("change", "named"),
+    [
+        (lambda s: s["poses"].update(ghost=[0.0, 0.0, 1.0, 0.0]), "ghost"),
+        (lambda s: s["poses"].pop("salter"), "salter"),
+        (lambda s: s["poses"].update(salter=[1e400, 0.0, 1.0, 0.0]), "poses.salter"),
+        (lambda s: s["robot"].update(arm=[0.0] * 6), "robot.arm"),
+        (lambda s: s.update(open_doors=["back_door"]), "back_door"),
+        (lambda s: s.update(held={"obj": ["x"]}), "held"),
+    ],
+)
+def test_state_files_that_do_not_fit_the_problem(
+    monkeypatch, capsys, tmp_path, problems, change, named
+) -> None:
+    state = problems["P2"].initial_state.to_json()
+    change(state)
+    path = tmp_path / "state.json"
+    path.write_text(json.dumps(state))
+    assert (
+        run_cli(monkeypatch, "render", "P2", "--state", str(path), "-o", str(tmp_path / "x.png"))
+        == 2
+    )
+    assert named in one_error_line(capsys.readouterr().err)

@@ -191,3 +191,29 @@ def test_a_grill_beside_a_can_is_fine_but_on_it_is_not(
     path.write_text(yaml.safe_dump(p5))
     with pytest.raises(StalmError, match=f"'can' overlaps '{grill['name']}'"):
         load_problem_file(path)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("name: 2001-02-30\n", "not valid YAML"),
+        ("a: &a [*a]\n", "more than"),
+        (
+            "".join(
+                f"l{i}: &l{i} [" + ", ".join([f"*l{i - 1}"] * 9) + "]\n" for i in range(1, 12)
+            ).replace("*l0", "0"),
+            "more than",
+        ),
+        ("[" * 5000 + "]" * 5000, "not valid YAML|mapping"),
+        ("a: '" + "x" * 1_000_001 + "'\n", "too long"),
+    ],
+)
+def test_hostile_yaml_is_refused_quickly(tmp_path: Path, text: str, message: str) -> None:
+    import time
+
+    path = tmp_path / "hostile.yaml"
+    path.write_text(text)
+    started = time.perf_counter()
+    with pytest.raises(StalmError, match=message):
+        load_problem_file(path)
+    assert time.perf_counter() - started < 2.0
