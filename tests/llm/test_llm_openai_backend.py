@@ -363,3 +363,17 @@ def test_openai_key_still_goes_to_openai(monkeypatch: pytest.MonkeyPatch) -> Non
     assert backend.key_source == "OPENAI_API_KEY"
     for lookalike in ("https://api.openai.com.evil.example/v1", "http://api.openai.com/v1"):
         assert OpenAICompatibleBackend(model="m", base_url=lookalike).key_source is None
+
+
+def test_the_reply_cache_accepts_a_batch_the_deadline_cut_short(
+    scripted_server: ScriptedHTTPServerDouble, tmp_path
+) -> None:
+    from stalm.llm.cache import CachedBackend, ReplyCache
+
+    scripted_server.script = [ScriptedReply(status=503, body={"error": {"message": "busy"}})]
+    retry = RetryPolicy(max_attempts=4, base_delay_s=30.0, max_delay_s=60.0)
+    backend = make(scripted_server, RecordingSleepDouble(), retry=retry)
+    cached = CachedBackend(backend, ReplyCache(tmp_path / "replies.sqlite"), mode="use")
+    request = LLMRequest(system="s", user="u", n=3, seed=1, deadline=time.monotonic() + 5.0)
+    response = cached.complete(request)  # the backoff would outlast the deadline: no replies
+    assert response.replies == ()
