@@ -7,6 +7,8 @@ reports backend, model, latency and token counts in a few seconds.
 
 from __future__ import annotations
 
+import math
+import time
 from typing import Annotated
 
 import typer
@@ -15,6 +17,7 @@ from rich.panel import Panel
 
 from stalm.cli.display import shown
 from stalm.domain.vocabulary import Vocabulary
+from stalm.errors import StalmError
 from stalm.llm.backends import SPEC_ENV, SPEC_HELP, LLMRequest, make_backend
 from stalm.llm.constraints import build_constraint
 
@@ -59,6 +62,9 @@ def check(
         str, typer.Option(help="The question to ask.")
     ] = "In one sentence: what does a robot need to do before picking up an occluded object?",
     max_tokens: Annotated[int, typer.Option(help="Reply length limit in tokens.")] = 48,
+    timeout: Annotated[
+        float, typer.Option(help="Seconds to wait for the answer, retries included.")
+    ] = 60.0,
     seed: Annotated[int, typer.Option(help="Sampling seed.")] = 0,
     constrained: Annotated[
         bool,
@@ -71,6 +77,8 @@ def check(
 ) -> None:
     """Show the configured backend and model, then time one short answer."""
     console = Console()
+    if not (math.isfinite(timeout) and timeout > 0):
+        raise StalmError(f"--timeout must be a positive number of seconds, got {timeout}")
     backend = make_backend(llm)
     console.print(f"[bold]backend[/]: {shown(backend.name)}", highlight=False)
     console.print(f"[bold]model[/]:   {shown(backend.model)}", highlight=False)
@@ -85,6 +93,7 @@ def check(
             max_tokens=max(max_tokens, 512),
             seed=seed,
             constraint=build_constraint(_CONSTRAINED_VOCABULARY),
+            deadline=time.monotonic() + timeout,
         )
     else:
         request = LLMRequest(
@@ -94,9 +103,12 @@ def check(
             temperature=0.0,
             max_tokens=max_tokens,
             seed=seed,
+            deadline=time.monotonic() + timeout,
         )
     with console.status("asking the model..."):
         response = backend.complete(request)
+    if not response.replies or response.replies[0].finish_reason == "deadline":
+        raise StalmError(f"{backend.name} model {backend.model!r}: no answer within {timeout:g} s")
     reply = response.replies[0]
     console.print(Panel(shown(reply.text.strip()) or "(empty reply)", title="reply"))
     rate = reply.completion_tokens / reply.latency_s if reply.latency_s > 0 else 0.0

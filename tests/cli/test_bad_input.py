@@ -203,3 +203,18 @@ def test_state_files_that_do_not_fit_the_problem(
         == 2
     )
     assert named in one_error_line(capsys.readouterr().err)
+
+
+def test_llm_check_against_a_hanging_server_ends_at_its_timeout(
+    monkeypatch, capsys, server
+) -> None:
+    import time
+
+    from tests.llm.llm_doubles import chat_completion
+
+    server.script = [ScriptedReply(body=chat_completion(["late"]), delay_s=60)]
+    started = time.monotonic()
+    args = ("llm", "check", "--llm", f"{server.base_url}#m", "--timeout", "1")
+    assert run_cli(monkeypatch, *args) == 2
+    assert time.monotonic() - started < 5
+    assert "no answer within 1 s" in one_error_line(capsys.readouterr().err)
