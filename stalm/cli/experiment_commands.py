@@ -97,10 +97,11 @@ def experiment_command(
             f"[yellow]warning:[/] {shown(log.path)}: moved its partial last line to "
             f"{shown(log.set_aside)}",
             highlight=False,
+            soft_wrap=True,
         )
     loaded = log.load()
     for problem in loaded.problems:
-        console.print(f"[yellow]warning:[/] {shown(problem)}", highlight=False)
+        console.print(f"[yellow]warning:[/] {shown(problem)}", highlight=False, soft_wrap=True)
     finished = loaded.finished_keys()
     done_before = sum(spec.key in finished for spec in specs)
     rows = ", ".join(arm.label for arm in plan.arms)
@@ -179,10 +180,12 @@ def _report(paths: list[Path], out_dir: Path, name: str, *, paper: bool) -> None
             raise StalmError(f"no results file at {path}")
         loaded = read_records(path)
         for problem in loaded.problems:
-            console.print(f"[yellow]warning:[/] {shown(problem)}", highlight=False)
+            console.print(f"[yellow]warning:[/] {shown(problem)}", highlight=False, soft_wrap=True)
         if loaded.skipped_partial_line:
             console.print(
-                f"[yellow]warning:[/] {shown(path)}: skipped a partial last line", highlight=False
+                f"[yellow]warning:[/] {shown(path)}: skipped a partial last line",
+                highlight=False,
+                soft_wrap=True,
             )
         records += loaded.records
     if not records:

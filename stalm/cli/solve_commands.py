@@ -258,7 +258,7 @@ def replay_command(
     loaded = load_problem(problem or str(data.get("problem", "")))
     report = replay_result_json(loaded, data)
     for warning in report.warnings:
-        console.print(f"[yellow]warning:[/] {shown(warning)}", highlight=False)
+        console.print(f"[yellow]warning:[/] {shown(warning)}", highlight=False, soft_wrap=True)
     if report.reached_goal:
         out.print(f"[green]replayed {report.steps_executed} actions: the goal is reached[/]")
     elif report.failed_step is not None:

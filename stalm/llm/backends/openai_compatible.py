@@ -190,8 +190,8 @@ class OpenAICompatibleBackend:
     ``STALM_LLM_MODEL`` (else, for a local server, the first model it lists); ``api_key``
     from ``STALM_LLM_API_KEY``, then, for the OpenAI API only, ``OPENAI_API_KEY``;
     ``constraint_style`` from ``STALM_LLM_CONSTRAINT_STYLE`` (else ``"json_schema"``).
-    Nothing touches the network until the first request. ``sleep`` is the backoff's clock, injectable so tests need not
-    wait.
+    Nothing touches the network until the first request. ``sleep`` is the backoff's clock,
+    injectable so tests need not wait.
     """
 
     def __init__(
