@@ -10,6 +10,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from stalm.cli.display import shown
 from stalm.cli.main import app
 
 bench_app = typer.Typer(help="Benchmarks: speed figures of the world, predicates, LLM and search.")
@@ -56,9 +57,9 @@ def bench_world(
     with console.status("benchmarking...") as status:
 
         def report(row: dict[str, object]) -> None:
-            status.update(f"done {row['problem']}")
+            status.update(f"done {shown(row['problem'])}")
             table.add_row(
-                str(row["problem"]),
+                shown(row["problem"]),
                 fmt(row["pick"]),
                 fmt(row["place"]),
                 fmt(row["open"]),
@@ -107,9 +108,9 @@ def bench_predicates(
     with console.status("benchmarking predicates...") as status:
 
         def report(row: dict[str, object]) -> None:
-            status.update(f"done {row['problem']}")
+            status.update(f"done {shown(row['problem'])}")
             table.add_row(
-                str(row["problem"]),
+                shown(row["problem"]),
                 str(row["literals"]),
                 f"{row['full_s']:.2f}",
                 cell(row.get("open")),
@@ -140,9 +141,9 @@ def bench_search(
     with console.status("benchmarking the search...") as status:
 
         def report(row: dict[str, object]) -> None:
-            status.update(f"done {row['problem']}")
+            status.update(f"done {shown(row['problem'])}")
             table.add_row(
-                str(row["problem"]),
+                shown(row["problem"]),
                 f"{row['seconds']:.1f}",
                 f"{row['simulations_per_s']:.2f}",
                 f"{row['transitions_per_s']:.1f}",

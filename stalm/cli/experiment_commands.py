@@ -8,7 +8,6 @@ from typing import Annotated, Any
 
 import typer
 from rich.console import Console
-from rich.markup import escape
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
@@ -18,6 +17,7 @@ from rich.progress import (
     TimeRemainingColumn,
 )
 
+from stalm.cli.display import printable, shown
 from stalm.cli.main import app
 from stalm.errors import StalmError
 
@@ -101,9 +101,16 @@ def experiment_command(
     )
     specs = trial_specs(plan)
     log = ResultsLog(results or Path("results") / f"{name}.jsonl")
+    if log.set_aside is not None:
+        console.print(
+            f"[yellow]warning:[/] {shown(log.path)}: moved its partial last line to "
+            f"{shown(log.set_aside)}",
+            highlight=False,
+            soft_wrap=True,
+        )
     loaded = log.load()
     for problem in loaded.problems:
-        console.print(f"[yellow]warning:[/] {problem}", highlight=False)
+        console.print(f"[yellow]warning:[/] {shown(problem)}", highlight=False, soft_wrap=True)
     finished = loaded.finished_keys()
     done_before = sum(spec.key in finished for spec in specs)
     rows = ", ".join(arm.label for arm in plan.arms)
@@ -133,11 +140,12 @@ def experiment_command(
             ran += 1
             solved += bool(record.get("success"))
             progress.update(task, advance=1, solved=f"{solved}/{ran}")
-            status = "solved" if record.get("success") else record.get("termination")
+            status = "solved" if record.get("success") else shown(record.get("termination"))
             if record.get("termination") == "error":
-                status = "[red]error[/]: " + escape(str(record.get("error")))
+                status = "[red]error[/]: " + shown(record.get("error"))
             progress.console.print(
-                f"{record['arm']} {record['problem']} trial {record['trial']}: {status} "
+                f"{shown(record['arm'])} {shown(record['problem'])} trial {record['trial']}: "
+                f"{status} "
                 f"in {float(record.get('time_s', 0.0)):.1f} s",
                 highlight=False,
             )
@@ -165,7 +173,7 @@ def experiment_command(
     if errors:
         console.print(
             f"[red]{len(errors)} trials ended in an error[/] (a re-run retries them); the "
-            f"first: {errors[0]}",
+            f"first: {shown(errors[0])}",
             highlight=False,
         )
         raise typer.Exit(1)
@@ -181,16 +189,20 @@ def _report(paths: list[Path], out_dir: Path, name: str, *, paper: bool) -> None
             raise StalmError(f"no results file at {path}")
         loaded = read_records(path)
         for problem in loaded.problems:
-            console.print(f"[yellow]warning:[/] {problem}", highlight=False)
+            console.print(f"[yellow]warning:[/] {shown(problem)}", highlight=False, soft_wrap=True)
         if loaded.skipped_partial_line:
-            console.print(f"[yellow]warning:[/] {path}: skipped a partial last line")
+            console.print(
+                f"[yellow]warning:[/] {shown(path)}: skipped a partial last line",
+                highlight=False,
+                soft_wrap=True,
+            )
         records += loaded.records
     if not records:
         raise StalmError(f"no trial records in {', '.join(str(p) for p in paths)}")
     text, files = write_report(records, out_dir, name=name, paper=paper)
-    out.print(text, highlight=False, markup=False, soft_wrap=True)
+    out.print(printable(text), highlight=False, markup=False, soft_wrap=True)
     written = [files.markdown, files.csv, *files.plots]
-    console.print("wrote " + ", ".join(str(p) for p in written), highlight=False)
+    console.print("wrote " + ", ".join(shown(p) for p in written), highlight=False)
 
 
 @app.command("report")

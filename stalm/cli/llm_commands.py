@@ -7,13 +7,17 @@ reports backend, model, latency and token counts in a few seconds.
 
 from __future__ import annotations
 
+import math
+import time
 from typing import Annotated
 
 import typer
 from rich.console import Console
 from rich.panel import Panel
 
+from stalm.cli.display import shown
 from stalm.domain.vocabulary import Vocabulary
+from stalm.errors import StalmError
 from stalm.llm.backends import SPEC_ENV, SPEC_HELP, LLMRequest, make_backend
 from stalm.llm.constraints import build_constraint
 
@@ -58,6 +62,9 @@ def check(
         str, typer.Option(help="The question to ask.")
     ] = "In one sentence: what does a robot need to do before picking up an occluded object?",
     max_tokens: Annotated[int, typer.Option(help="Reply length limit in tokens.")] = 48,
+    timeout: Annotated[
+        float, typer.Option(help="Seconds to wait for the answer, retries included.")
+    ] = 60.0,
     seed: Annotated[int, typer.Option(help="Sampling seed.")] = 0,
     constrained: Annotated[
         bool,
@@ -70,11 +77,13 @@ def check(
 ) -> None:
     """Show the configured backend and model, then time one short answer."""
     console = Console()
+    if not (math.isfinite(timeout) and timeout > 0):
+        raise StalmError(f"--timeout must be a positive number of seconds, got {timeout}")
     backend = make_backend(llm)
-    console.print(f"[bold]backend[/]: {backend.name}")
-    console.print(f"[bold]model[/]:   {backend.model}")
+    console.print(f"[bold]backend[/]: {shown(backend.name)}", highlight=False)
+    console.print(f"[bold]model[/]:   {shown(backend.model)}", highlight=False)
     notice_style = "yellow" if backend.name == "embedded" else "blue"
-    console.print(Panel(backend.description, border_style=notice_style, title="about"))
+    console.print(Panel(shown(backend.description), border_style=notice_style, title="about"))
     if constrained:
         request = LLMRequest(
             system=_CONSTRAINED_SYSTEM,
@@ -84,6 +93,7 @@ def check(
             max_tokens=max(max_tokens, 512),
             seed=seed,
             constraint=build_constraint(_CONSTRAINED_VOCABULARY),
+            deadline=time.monotonic() + timeout,
         )
     else:
         request = LLMRequest(
@@ -93,14 +103,17 @@ def check(
             temperature=0.0,
             max_tokens=max_tokens,
             seed=seed,
+            deadline=time.monotonic() + timeout,
         )
     with console.status("asking the model..."):
         response = backend.complete(request)
+    if not response.replies or response.replies[0].finish_reason == "deadline":
+        raise StalmError(f"{backend.name} model {backend.model!r}: no answer within {timeout:g} s")
     reply = response.replies[0]
-    console.print(Panel(reply.text.strip() or "(empty reply)", title="reply"))
+    console.print(Panel(shown(reply.text.strip()) or "(empty reply)", title="reply"))
     rate = reply.completion_tokens / reply.latency_s if reply.latency_s > 0 else 0.0
     console.print(
         f"latency {reply.latency_s:.2f} s | prompt tokens {reply.prompt_tokens} | "
         f"completion tokens {reply.completion_tokens} | {rate:.1f} tokens/s | "
-        f"finish: {reply.finish_reason or '?'}"
+        f"finish: {shown(reply.finish_reason or '?')}"
     )

@@ -44,11 +44,14 @@ def main() -> None:
 
     Typer's own handling reports usage mistakes (exit code 2); a :class:`StalmError` raised by
     a command (bad file, unknown name, unreachable server) is printed as one ``error:`` line
-    with exit code 2 instead of a traceback.
+    with exit code 2 instead of a traceback (quoted text escaped, see :mod:`stalm.cli.display`).
     """
+    from stalm.cli.display import shown
+
     _register_commands()
     try:
         app()
     except StalmError as error:
-        ERROR_CONSOLE.print(f"[bold red]error:[/] {error}", highlight=False)
+        # the message may quote a file, a reply or a server: escaped, and never wrapped
+        ERROR_CONSOLE.print(f"[bold red]error:[/] {shown(error)}", highlight=False, soft_wrap=True)
         sys.exit(2)

@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 from rich.console import Console
 
+from stalm.cli.display import printable
 from stalm.cli.main import app
 from stalm.cli.text_commands import format_parsed_reply_json, format_prompt, parse_reply_file
 from stalm.cli.world_commands import read_state_file
@@ -33,7 +34,9 @@ def compute_literals(problem: Problem, state_file: Path | None) -> list[GroundLi
     from stalm.predicates.engine import PredicateEngine
     from stalm.world.scene import Sim
 
-    state = read_state_file(state_file) if state_file is not None else problem.initial_state
+    state = (
+        read_state_file(state_file, problem) if state_file is not None else problem.initial_state
+    )
     with Sim(problem.spec) as sim, console.status("computing predicates (motion planning)..."):
         engine = PredicateEngine(problem, sim, BasePlanner(sim))
         cache = engine.compute(state)
@@ -53,7 +56,7 @@ def predicates_command(
         typer.echo(json.dumps([list(lit.as_tuple()) for lit in literals], indent=1))
         return
     for literal in literals:
-        typer.echo(str(literal))
+        typer.echo(printable(literal))
     typer.echo(f"# {len(literals)} literals", err=True)
 
 
@@ -76,7 +79,7 @@ def prompt_command(
         literals = [
             lit for lit in literals if lit.name not in ("PickOccludedBy", "PlaceOccludedBy")
         ]
-    typer.echo(format_prompt(problem_prompt(loaded, literals, options)))
+    typer.echo(printable(format_prompt(problem_prompt(loaded, literals, options))))
 
 
 @app.command("parse-reply")

@@ -3,27 +3,35 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
+from stalm.cli.display import shown
 from stalm.cli.main import app
+from stalm.cli.paths import check_output_file, write_or_fall_back
 from stalm.domain.params import PickParams, PlaceParams
 from stalm.errors import StalmError
 from stalm.planners.base import PlanResult
-from stalm.world.problem import load_problem
+from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
 
 console = Console(stderr=True)
 out = Console()
 
 
 def _print_result(result: PlanResult) -> None:
-    status = "[green]solved[/]" if result.success else f"[red]not solved[/] ({result.termination})"
+    status = (
+        "[green]solved[/]"
+        if result.success
+        else f"[red]not solved[/] ({shown(result.termination)})"
+    )
     out.print(
-        f"{result.problem} with {result.planner} (seed {result.seed}): {status}", highlight=False
+        f"{shown(result.problem)} with {result.planner} (seed {result.seed}): {status}",
+        highlight=False,
     )
     table = Table(show_header=True, title=f"plan ({len(result.plan)} actions)")
     table.add_column("#", justify="right")
@@ -36,7 +44,7 @@ def _print_result(result: PlanResult) -> None:
             detail += f", gripper pitch {params.pitch:.2f} yaw {params.yaw:.2f}"
         elif isinstance(params, PlaceParams):
             detail += f", at ({params.placement.x:.2f}, {params.placement.y:.2f})"
-        table.add_row(str(index + 1), str(action.discrete), detail)
+        table.add_row(str(index + 1), shown(action.discrete), detail)
     out.print(table)
     t = result.times
     c = result.counters
@@ -49,7 +57,33 @@ def _print_result(result: PlanResult) -> None:
         highlight=False,
     )
     if result.llm_plan_failures:
-        out.print(f"failed task plans by kind: {result.llm_plan_failures}", highlight=False)
+        out.print(f"failed task plans by kind: {shown(result.llm_plan_failures)}", highlight=False)
+
+
+def write_result_json(data: dict[str, Any], path: Path) -> Path:
+    """Write a result; if ``path`` cannot be written, to a temporary file named on stderr
+    (a solve's result is never lost to a bad path). Returns the file written."""
+    written, why = write_or_fall_back(json.dumps(data, indent=1), path, "stalm-result")
+    if why is not None:
+        console.print(
+            f"[red]could not write {shown(path)}[/] ({shown(why)}); the result is in "
+            f"{shown(written)}",
+            highlight=False,
+            soft_wrap=True,
+        )
+    return written
+
+
+def check_solve_numbers(seed: int, time_budget: float | None, sims: int | None, batch: int) -> None:
+    """Numbers a solve cannot run with, as one StalmError naming the option."""
+    if seed < 0:
+        raise StalmError(f"--seed must be a non-negative integer, got {seed}")
+    if time_budget is not None and not (math.isfinite(time_budget) and time_budget > 0):
+        raise StalmError(f"--time-budget must be a positive number of seconds, got {time_budget}")
+    if sims is not None and sims < 1:
+        raise StalmError(f"--sims (N_budget) must be at least 1, got {sims}")
+    if batch < 1:
+        raise StalmError(f"--batch (N_batch) must be at least 1, got {batch}")
 
 
 @app.command("solve")
@@ -138,7 +172,15 @@ def solve_command(
         with_overrides,
     )
 
+    check_solve_numbers(seed, time_budget, sims, batch)
+    for path, option in ((json_out, "--json"), (gif, "--gif")):
+        if path is not None:
+            check_output_file(path, option)
     loaded = load_problem(problem)
+    from stalm.motion.problem_check import check_problem_geometry
+
+    with console.status(f"checking {shown(loaded.name)}'s scene..."):
+        check_problem_geometry(loaded)  # before the clock starts: a bad file fails at once
     if no_uct:
         planner_name = "stalm-no-uct"
     entry = planner_entry(planner_name)
@@ -161,17 +203,39 @@ def solve_command(
 
         backend = make_backend(llm)  # no model is loaded here
         if backend.name == "embedded":
-            console.print(f"[yellow]note:[/] {backend.description}", highlight=False)
-    with console.status(f"solving {loaded.name} with {entry.name}...") as status:
-        planner = build_planner(entry.name, config, progress=lambda m: status.update(m))
-        result = planner.solve(loaded, seed, time_budget)
+            console.print(f"[yellow]note:[/] {shown(backend.description)}", highlight=False)
+    with console.status(f"solving {shown(loaded.name)} with {entry.name}...") as status:
+        planner = build_planner(entry.name, config, progress=lambda m: status.update(shown(m)))
+        try:
+            result = planner.solve(loaded, seed, time_budget)
+        except StalmError as error:
+            # a server that fails mid-run (a key refused, answers that are not JSON): the
+            # result file still says what happened, as an experiment's error record does
+            if json_out is not None:
+                failed = {
+                    "problem": loaded.name,
+                    PROBLEM_HASH_FIELD: loaded.content_hash,
+                    "planner": entry.name,
+                    "seed": seed,
+                    "success": False,
+                    "termination": "error",
+                    "error": str(error),
+                    "plan_length": 0,
+                    "plan": [],
+                }
+                out.print(f"wrote {shown(write_result_json(failed, json_out))}", highlight=False)
+            raise
     _print_result(result)
+    fallback: Path | None = None
     if json_out is not None:
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(result.to_json(), indent=1))
-        out.print(f"wrote {json_out}")
+        data = {**result.to_json(), PROBLEM_HASH_FIELD: loaded.content_hash}
+        written = write_result_json(data, json_out)
+        out.print(f"wrote {shown(written)}", highlight=False)
+        fallback = written if written != json_out else None
     if gif is not None:
         _write_gif(loaded, result, gif)
+    if fallback is not None:
+        raise StalmError(f"--json {json_out} could not be written; the result is in {fallback}")
     if not result.success:
         raise typer.Exit(1)
 
@@ -185,8 +249,11 @@ def _write_gif(problem: object, result: PlanResult, path: Path) -> None:
         frames = plan_frames(
             sim, result.states[0], list(zip(result.plan, result.states[1:], strict=True))
         )
-        save_gif(frames, path)
-    out.print(f"wrote {path} ({len(frames)} frames)")
+        try:
+            save_gif(frames, path)
+        except OSError as error:
+            raise StalmError(f"--gif {path}: cannot write it ({error.strerror})") from None
+    out.print(f"wrote {shown(path)} ({len(frames)} frames)", highlight=False)
 
 
 @app.command("replay")
@@ -204,19 +271,28 @@ def replay_command(
     """Re-execute a saved plan in a fresh scene and check that it reaches the goal."""
     from stalm.planners.replay import replay_result_json
 
+    if gif is not None:
+        check_output_file(gif, "--gif")
     try:
         data = json.loads(result_file.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as error:
+    except (OSError, ValueError) as error:  # ValueError: not UTF-8, not JSON
         raise StalmError(f"{result_file}: cannot read a result ({error})") from None
+    if not isinstance(data, dict):
+        raise StalmError(f"{result_file}: not a stalm result (not a JSON object)")
     loaded = load_problem(problem or str(data.get("problem", "")))
     report = replay_result_json(loaded, data)
+    for warning in report.warnings:
+        console.print(f"[yellow]warning:[/] {shown(warning)}", highlight=False, soft_wrap=True)
     if report.reached_goal:
         out.print(f"[green]replayed {report.steps_executed} actions: the goal is reached[/]")
     elif report.failed_step is not None:
-        out.print(f"[red]step {report.failed_step + 1} fails:[/] {report.reason}", highlight=False)
+        out.print(
+            f"[red]step {report.failed_step + 1} fails:[/] {shown(report.reason)}", highlight=False
+        )
     else:
         out.print(
-            f"[red]replayed {report.steps_executed} actions: {report.reason}[/]", highlight=False
+            f"[red]replayed {report.steps_executed} actions: {shown(report.reason)}[/]",
+            highlight=False,
         )
     if gif is not None:
         from stalm.viz.animate import plan_frames, save_gif

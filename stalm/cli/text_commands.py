@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from stalm.cli.display import json_printable
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
 from stalm.llm.prompt import Prompt
@@ -18,8 +19,12 @@ from stalm.llm.reply_parser import ParsedReply, parse_reply
 
 
 def format_parsed_reply_json(parsed: ParsedReply) -> str:
-    """The parse result as indented JSON (plan, steps, errors with index/raw/message, reason)."""
-    return json.dumps(parsed.to_json(), indent=2, ensure_ascii=False)
+    """The parse result as indented JSON (plan, steps, errors with index/raw/message, reason).
+
+    Non-ASCII text stays readable, but control characters the JSON encoder leaves raw (C1
+    codes, bidirectional marks) are written as ``\\uXXXX`` escapes: the reply is not ours.
+    """
+    return json_printable(json.dumps(parsed.to_json(), indent=2, ensure_ascii=False))
 
 
 def format_prompt(prompt: Prompt) -> str:

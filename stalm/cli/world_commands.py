@@ -10,7 +10,9 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from stalm.cli.display import shown
 from stalm.cli.main import app
+from stalm.cli.paths import check_output_file
 from stalm.errors import StalmError
 from stalm.world.problem import Problem, available_problems, load_problem
 from stalm.world.state import State
@@ -21,13 +23,14 @@ console = Console()
 def _problem_row(problem: Problem) -> tuple[str, ...]:
     spec = problem.spec
     goal = ", ".join(str(g) for g in problem.goal)
-    return (
+    cells = (
         spec.name,
         ", ".join(r.name for r in spec.regions),
         ", ".join(o.name for o in spec.objects),
         str(spec.placement_count),
         goal,
     )
+    return tuple(shown(cell) for cell in cells)
 
 
 @app.command("problems")
@@ -36,6 +39,14 @@ def problems_command(
         list[Path] | None, typer.Option("--file", "-f", help="List these problem files instead.")
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
+    check: Annotated[
+        bool | None,
+        typer.Option(
+            "--check/--no-check",
+            help="Also check the scene in the simulator: nothing starts inside anything, every "
+            "standing pose is free and reachable (default: on for --file).",
+        ),
+    ] = None,
 ) -> None:
     """List the problems: regions, objects, placement count n(R) + 4 n(O), and goals."""
     problems = (
@@ -43,6 +54,12 @@ def problems_command(
         if file
         else [load_problem(p) for p in available_problems()]
     )
+    if check if check is not None else bool(file):
+        from stalm.motion.problem_check import check_problem_geometry
+
+        with console.status("checking the scenes in the simulator..."):
+            for problem in problems:
+                check_problem_geometry(problem)
     if as_json:
         rows = [
             {
@@ -81,24 +98,34 @@ def render_command(
     from stalm.viz.render import save_render
     from stalm.world.scene import Sim
 
+    check_output_file(output, "--output")
     loaded = load_problem(problem)
     state = loaded.initial_state
     if state_file is not None:
-        state = read_state_file(state_file)
+        state = read_state_file(state_file, loaded)
     with Sim(loaded.spec) as sim:
         save_render(sim, state, output, size)
-    console.print(f"wrote {output}")
+    console.print(f"wrote {shown(output)}", highlight=False)
 
 
-def read_state_file(path: Path) -> State:
-    """A State from a JSON file (a bare State, or any JSON object with a 'state' field)."""
+def read_state_file(path: Path, problem: Problem | None = None) -> State:
+    """A State from a JSON file (a bare State, or any JSON object with a 'state' field).
+
+    With ``problem``, the State must hold exactly the problem's objects and only its doors,
+    so the simulator is never asked to place a body it does not have.
+    """
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as error:
+    except (OSError, ValueError, RecursionError) as error:  # not UTF-8, not JSON, too deep
         raise StalmError(f"{path}: cannot read a State from it ({error})") from None
     if isinstance(data, dict) and "state" in data:
         data = data["state"]
     try:
-        return State.from_json(data)
-    except (KeyError, TypeError, ValueError, AssertionError) as error:
-        raise StalmError(f"{path}: not a State ({error!r})") from None
+        state = State.from_json(data)
+    except (KeyError, TypeError, ValueError, OverflowError) as error:
+        raise StalmError(f"{path}: not a State ({error})") from None
+    if problem is not None:
+        why = problem.state_mismatch(state)
+        if why is not None:
+            raise StalmError(f"{path}: not a State of {problem.name}: {why}")
+    return state

@@ -17,7 +17,11 @@ FAILURE_KINDS = (
     "arm_collision",
     "no_placement",
     "door_blocked",
+    "inconsistent",
 )
+"""``inconsistent`` is replay's only: a saved action whose parameters do not fit the state
+(a path not starting at the robot, a grasp away from the object, a placement the hand does not
+reach), which a sampler never draws but a hand-edited plan file can hold."""
 
 
 @dataclass(frozen=True)

@@ -4,8 +4,15 @@ Only the experiment's caller writes (workers hand records back), and each record
 as one ``write`` of one complete line on a file opened for appending, then ``fsync``-ed: a
 kill before the write loses only the running trial, a kill after it loses nothing. If the
 machine dies inside the write, the file could end in a partial line; reading skips it (with
-a warning) and the next append first cuts it off, so the file never holds a corrupt line
-next to good ones.
+a warning) and the next append first moves it to ``NAME.jsonl.set-aside`` (named in the
+warning), so the file never holds a corrupt line next to good ones and no byte is thrown away.
+A last line that is a whole record missing only its newline is a record: it is kept and
+given its newline.
+
+Reading never stops at a bad line: a line that is not UTF-8, not JSON, or not a trial record
+(a field the report needs is missing or of the wrong type, see :data:`REQUIRED_FIELDS`) is
+skipped and named (``file:line: why``) in :attr:`LoadedRecords.problems`; every other record
+is kept.
 
 A trial is finished when its last record is not an ``error`` (an exception in a planner):
 re-running the same command skips finished trials and retries errored ones.
@@ -14,6 +21,7 @@ re-running the same command skips finished trials and retries errored ones.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -21,6 +29,59 @@ from pathlib import Path
 from typing import Any
 
 from stalm.errors import StalmError
+
+REQUIRED_FIELDS: dict[str, type] = {
+    "key": str,
+    "arm": str,
+    "problem": str,
+    "termination": str,
+}
+"""Fields every trial record has (what resuming and the report group by), with their types."""
+
+_NUMBER_FIELDS = ("time_s", "time_budget_s")
+SET_ASIDE_SUFFIX = ".set-aside"
+
+
+def record_problem(record: object) -> str | None:
+    """Why ``record`` is not a trial record the report and resume can use, or None."""
+    if not isinstance(record, dict):
+        return f"not a trial record (a JSON {type(record).__name__}, not an object)"
+    for name, kind in REQUIRED_FIELDS.items():
+        if name not in record:
+            return f"not a trial record (no {name!r})"
+        if not isinstance(record[name], kind):
+            return f"not a trial record ({name!r} is not a string)"
+    if not isinstance(record.get("success", False), bool):
+        return "not a trial record ('success' is not true or false)"
+    for name in _NUMBER_FIELDS:
+        value = record.get(name, 0.0)
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        if not number or not math.isfinite(value):
+            return f"not a trial record ({name!r} is not a finite number)"
+    if record.get("success") and "time_s" not in record:
+        return "not a trial record (a success without 'time_s')"
+    failures = record.get("llm_plan_failures") or {}
+    if not isinstance(failures, dict) or not all(
+        isinstance(n, int) and not isinstance(n, bool) for n in failures.values()
+    ):
+        return "not a trial record ('llm_plan_failures' is not a mapping of counts)"
+    return None
+
+
+def _parse_line(line: bytes) -> tuple[dict[str, Any] | None, str | None]:
+    """A record from one line, or None and why not."""
+    try:
+        text = line.decode("utf-8")
+    except UnicodeDecodeError as error:
+        return None, f"not UTF-8 text (byte {line[error.start]:#04x} at column {error.start + 1})"
+    try:
+        record = json.loads(text)
+    except json.JSONDecodeError as error:
+        return None, f"not a JSON record ({error.msg})"
+    except RecursionError:
+        return None, "not a JSON record (nested too deeply)"
+    problem = record_problem(record)
+    return (None, problem) if problem else (record, None)
 
 
 @dataclass(frozen=True)
@@ -51,24 +112,24 @@ def read_records(path: Path) -> LoadedRecords:
     except OSError as error:
         raise StalmError(f"cannot read results {path}: {error}") from error
     lines = raw.split(b"\n")
-    tail = lines.pop()  # b"" when the file ends with a newline, else a partial last line
+    tail = lines.pop()  # b"" when the file ends with a newline, else the unfinished last line
+    partial = False
+    if tail.strip():
+        if _parse_line(tail)[0] is not None:
+            lines.append(tail)  # a whole record that only lacks its newline
+        else:
+            partial = True
     records: list[dict[str, Any]] = []
     problems: list[str] = []
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
-        try:
-            record = json.loads(line)
-        except json.JSONDecodeError as error:
-            problems.append(f"{path}:{number}: not a JSON record ({error.msg})")
-            continue
-        if not isinstance(record, dict) or "key" not in record:
-            problems.append(f"{path}:{number}: not a trial record (no 'key')")
+        record, problem = _parse_line(line)
+        if record is None:
+            problems.append(f"{path}:{number}: {problem}")
             continue
         records.append(record)
-    return LoadedRecords(
-        tuple(records), skipped_partial_line=bool(tail.strip()), problems=tuple(problems)
-    )
+    return LoadedRecords(tuple(records), skipped_partial_line=partial, problems=tuple(problems))
 
 
 class ResultsLog:
@@ -80,23 +141,46 @@ class ResultsLog:
             self._path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as error:
             raise StalmError(f"cannot create the results folder {self._path.parent}") from error
-        self._cut_partial_tail()
+        if self._path.is_dir():
+            raise StalmError(f"results file {self._path} is a folder; name a .jsonl file")
+        self.set_aside: Path | None = None
+        """Where a partial last line was moved on opening (None: there was none)."""
+        try:
+            self._finish_last_line()
+        except OSError as error:
+            raise StalmError(f"cannot open results {self._path}: {error.strerror}") from error
 
     @property
     def path(self) -> Path:
         return self._path
 
-    def _cut_partial_tail(self) -> None:
+    def _finish_last_line(self) -> None:
+        """Give a whole last record its newline; move a partial one to the set-aside file."""
         if not self._path.exists():
             return
         with self._path.open("rb+") as handle:
             data = handle.read()
-            if data and not data.endswith(b"\n"):
-                handle.truncate(data.rfind(b"\n") + 1)
+            if not data or data.endswith(b"\n"):
+                return
+            start = data.rfind(b"\n") + 1
+            tail = data[start:]
+            if _parse_line(tail)[0] is not None:
+                handle.write(b"\n")
+                return
+            set_aside = self._path.with_name(self._path.name + SET_ASIDE_SUFFIX)
+            with set_aside.open("ab") as kept:
+                kept.write(tail + b"\n")
+                kept.flush()
+                os.fsync(kept.fileno())
+            handle.truncate(start)
+            self.set_aside = set_aside
 
     def append(self, record: dict[str, Any]) -> None:
         line = (json.dumps(record, sort_keys=True, default=str) + "\n").encode()
-        descriptor = os.open(self._path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        try:
+            descriptor = os.open(self._path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        except OSError as error:
+            raise StalmError(f"cannot write results {self._path}: {error.strerror}") from error
         try:
             written = os.write(descriptor, line)
             if written != len(line):  # a short write to a regular file means a full disk

@@ -8,6 +8,7 @@ P6) times ``budget_scale``, unless ``time_budget_s`` fixes one for all.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 from stalm.errors import StalmError
@@ -51,10 +52,14 @@ class ExperimentPlan:
     def __post_init__(self) -> None:
         if self.trials < 1:
             raise StalmError(f"--trials must be at least 1, got {self.trials}")
-        if self.budget_scale <= 0:
-            raise StalmError(f"--budget-scale must be positive, got {self.budget_scale}")
-        if self.time_budget_s is not None and self.time_budget_s <= 0:
-            raise StalmError(f"--time-budget must be positive, got {self.time_budget_s}")
+        if not (math.isfinite(self.budget_scale) and self.budget_scale > 0):
+            raise StalmError(f"--budget-scale must be a positive number, got {self.budget_scale}")
+        if self.time_budget_s is not None and not (
+            math.isfinite(self.time_budget_s) and self.time_budget_s > 0
+        ):
+            raise StalmError(
+                f"--time-budget must be a positive number of seconds, got {self.time_budget_s}"
+            )
         if not self.arms:
             raise StalmError(f"experiment {self.name} has no planners to run")
 

@@ -25,7 +25,7 @@ from typing import Any
 
 from stalm.errors import StalmError
 from stalm.planners.registry import PlannerConfig, build_planner
-from stalm.world.problem import load_problem
+from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
 
 RECORD_VERSION = 1
 
@@ -148,6 +148,7 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
             }
     data = result.to_json()
     return base | {
+        PROBLEM_HASH_FIELD: problem.content_hash,
         "success": data["success"],
         "termination": data["termination"],
         "time_s": data["times"]["total"],

@@ -382,7 +382,11 @@ class CachedBackend:
             started = time.perf_counter()
             response = self._inner.complete(sub_request)
             share = (time.perf_counter() - started) / max(1, len(response.replies))
-            cut_short = request.deadline is not None and time.monotonic() >= request.deadline
+            # with a deadline, a backend stops short rather than outlast it (also when a retry's
+            # backoff would): fewer replies are then the deadline's doing, not a broken backend
+            cut_short = request.deadline is not None and (
+                time.monotonic() >= request.deadline or len(response.replies) < length
+            )
             if len(response.replies) != length and not cut_short:
                 raise StalmError(
                     f"backend {backend!r} (model {model!r}) returned {len(response.replies)} "

@@ -31,6 +31,10 @@ Decisions (each is a policy the planner relies on, so it is written down here):
   exceptions. The plan is the valid prefix before the first bad step, as the authors' code cut
   the plan at the first unknown name: later steps were chosen for the state the bad step would
   have produced. All steps and all errors are kept for diagnosis.
+* **Bounded time.** Only the first :data:`MAX_REPLY_CHARS` characters are read (a reply of
+  500 tokens is a few thousand; anything longer is noted in ``reason``), and each candidate
+  list is read only up to where the next ``plan = [`` starts, so no text is scanned twice and
+  the time is linear in the reply's length whatever the reply holds.
 * The parser checks names and kinds only. State preconditions (an empty hand before pick,
   an occlusion) are the domain's business, because a plan that breaks them is still the
   model's plan and the search uses it as such.
@@ -47,6 +51,10 @@ from stalm.domain.actions import DIRECTIONS, Direction, DiscreteAction, Open, Pi
 from stalm.domain.vocabulary import Vocabulary
 
 ErrorKind = Literal["syntax", "unknown_operator", "unknown_name", "arity", "wrong_kind"]
+
+MAX_REPLY_CHARS = 65_536
+"""How much of a reply is read: far beyond any real reply (the authors' 500 tokens are a few
+thousand characters), small enough that an endless or hostile one is read in milliseconds."""
 
 _PLAN_START = re.compile(r"\bplan\s*=\s*\[", re.IGNORECASE)
 _BARE_LIST_START = re.compile(r"\[\s*\(")
@@ -175,28 +183,35 @@ class _RawList:
 
 
 class _Scanner:
-    """A cursor over the reply; each method consumes one construct and never raises."""
+    """A cursor over ``text[pos:end]``; each method consumes one construct and never raises.
 
-    def __init__(self, text: str, pos: int) -> None:
+    ``end`` is where the next candidate list starts (or the reply's end): a list is never read
+    into the next one, which keeps the whole parse linear. Reaching an ``end`` that is not the
+    reply's end is not a cut-off reply: the list just stops there, like one followed by text.
+    """
+
+    def __init__(self, text: str, pos: int, end: int | None = None) -> None:
         self.text = text
         self.pos = pos
+        self.end = len(text) if end is None else end
+        self.bounded = self.end < len(text)
 
     def at_end(self) -> bool:
-        return self.pos >= len(self.text)
+        return self.pos >= self.end
 
     def peek(self) -> str:
-        return self.text[self.pos] if self.pos < len(self.text) else ""
+        return self.text[self.pos] if self.pos < self.end else ""
 
     def skip_blanks(self, also: str = "") -> None:
         """Skip whitespace and any of the characters in ``also`` (separating commas)."""
-        text = self.text
-        while self.pos < len(text) and (text[self.pos].isspace() or text[self.pos] in also):
+        text, end = self.text, self.end
+        while self.pos < end and (text[self.pos].isspace() or text[self.pos] in also):
             self.pos += 1
 
     def rest_of_line(self) -> str:
         """Consume up to (not including) the next newline and return what was consumed."""
-        end = self.text.find("\n", self.pos)
-        end = len(self.text) if end < 0 else end
+        end = self.text.find("\n", self.pos, self.end)
+        end = self.end if end < 0 else end
         line = self.text[self.pos : end]
         self.pos = end
         return line
@@ -209,7 +224,8 @@ class _Scanner:
             self.skip_blanks(also=",")
             char = self.peek()
             if not char:
-                return _RawList(tuple(steps), "comment" if bracket_in_comment else "eof")
+                unfinished: ListEnd = "text" if self.bounded else "eof"
+                return _RawList(tuple(steps), "comment" if bracket_in_comment else unfinished)
             if char == "#":
                 bracket_in_comment = "]" in self.rest_of_line()
             elif char == "]":
@@ -239,6 +255,8 @@ class _Scanner:
         while True:
             self.skip_blanks(also=",")
             char = self.peek()
+            if not char and self.bounded:
+                return self._broken(start, items, "the step is not closed")
             if not char:
                 return self._broken(start, items, "the step is cut off", cut_off=True)
             if char in ")]":
@@ -250,7 +268,7 @@ class _Scanner:
             elif char in "'\"":
                 value = self.read_string(char)
                 if value is None:
-                    cut_off = self.at_end()
+                    cut_off = self.at_end() and not self.bounded
                     return self._broken(start, items, "unterminated string", cut_off=cut_off)
                 items.append(value)
             elif char in "([`":
@@ -262,10 +280,10 @@ class _Scanner:
         """A quoted string on one line (backslash escapes the next character), or None."""
         chars: list[str] = []
         pos = self.pos + 1
-        text = self.text
-        while pos < len(text):
+        text, end = self.text, self.end
+        while pos < end:
             char = text[pos]
-            if char == "\\" and pos + 1 < len(text) and text[pos + 1] != "\n":
+            if char == "\\" and pos + 1 < end and text[pos + 1] != "\n":
                 chars.append(text[pos + 1])
                 pos += 2
                 continue
@@ -282,7 +300,7 @@ class _Scanner:
     def read_bare_word(self) -> str:
         """An unquoted item such as ``pick`` in ``(pick, coke)``: up to the next delimiter."""
         start = self.pos
-        while self.pos < len(self.text) and self.text[self.pos] not in _BARE_WORD_STOP:
+        while self.pos < self.end and self.text[self.pos] not in _BARE_WORD_STOP:
             self.pos += 1
         return self.text[start : self.pos].strip()
 
@@ -296,13 +314,14 @@ class _Scanner:
         return _RawStep(raw, tuple(items), problem, cut_off)
 
 
-def _candidate_starts(text: str) -> list[int]:
-    """Positions just after the ``[`` of every ``plan = [``, or of the first bare ``[(``."""
-    starts = [match.end() for match in _PLAN_START.finditer(text)]
+def _candidate_starts(text: str) -> list[tuple[int, int]]:
+    """``(where it starts, just after its [)`` of every ``plan = [``, or of the first bare
+    ``[(``."""
+    starts = [(match.start(), match.end()) for match in _PLAN_START.finditer(text)]
     if not starts:
         bare = _BARE_LIST_START.search(text)
         if bare is not None:
-            starts = [bare.start() + 1]
+            starts = [(bare.start(), bare.start() + 1)]
     return starts
 
 
@@ -468,11 +487,14 @@ def _has_operator(candidate: _RawList) -> bool:
 def _choose_list(text: str) -> _RawList | None:
     """The last list with a known operator in some step; else the last list (see module doc).
 
-    Candidates are read from the last one backwards, so a long reply is scanned about once.
+    Candidates are read from the last one backwards, each up to where the next one starts, so
+    a reply is scanned at most once however many candidates it holds.
     """
     fallback: _RawList | None = None
-    for start in reversed(_candidate_starts(text)):
-        candidate = _Scanner(text, start).read_list()
+    end = len(text)
+    for begin, start in reversed(_candidate_starts(text)):
+        candidate = _Scanner(text, start, end).read_list()
+        end = begin
         if _has_operator(candidate):
             return candidate
         fallback = fallback or candidate
@@ -496,6 +518,11 @@ def parse_reply(text: str, vocabulary: Vocabulary) -> ParsedReply:
     """
     if not text.strip():
         return ParsedReply((), (), (), "the reply is empty")
+    if len(text) > MAX_REPLY_CHARS:
+        parsed = parse_reply(text[:MAX_REPLY_CHARS], vocabulary)
+        cut = f"only the first {MAX_REPLY_CHARS} of the reply's {len(text)} characters were read"
+        why = cut if parsed.reason is None else f"{parsed.reason}; {cut}"
+        return ParsedReply(parsed.plan, parsed.steps, parsed.errors, why)
     chosen = _choose_list(text)
     if chosen is None:
         return ParsedReply((), (), (), "no plan list (plan = [...]) in the reply")

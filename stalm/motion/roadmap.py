@@ -225,6 +225,41 @@ def build_roadmap(
             sim.set_door(name, was_open)
 
 
+def _read_cached_roadmap(path: Path, open_doors: frozenset[str]) -> Roadmap | None:
+    """The roadmap in a cache file, or None if the file is damaged in any way.
+
+    A cache file is ours but the disk is not: a kill mid-write elsewhere, a full disk or a
+    stray copy can leave a truncated or foreign file. Whatever fails to read (a bad zip, a
+    missing array, a wrong shape, an edge naming a node that is not there) means "rebuild",
+    so every exception is caught here, and only here.
+    """
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            nodes = np.asarray(data["nodes"], dtype=float)
+            edges = np.asarray(data["edges"])
+            anchors = np.asarray(data["anchors"], dtype=float)
+        if nodes.ndim != 2 or nodes.shape[1] != 2 or not np.isfinite(nodes).all():
+            return None
+        if edges.size and (edges.ndim != 2 or edges.shape[1] != 2):
+            return None
+        if edges.size and (edges.min() < 0 or edges.max() >= len(nodes)):
+            return None
+        if anchors.size and (anchors.ndim != 2 or anchors.shape[1] != 2):
+            return None
+        adjacency: list[list[int]] = [[] for _ in range(len(nodes))]
+        for a, b in edges.reshape(-1, 2):
+            adjacency[int(a)].append(int(b))
+            adjacency[int(b)].append(int(a))
+        return Roadmap(
+            nodes=nodes,
+            adjacency=tuple(tuple(sorted(a)) for a in adjacency),
+            anchors=tuple((float(x), float(y)) for x, y in anchors.reshape(-1, 2)),
+            open_doors=open_doors,
+        )
+    except Exception:  # any damage means rebuild (see the docstring)
+        return None
+
+
 def load_or_build_roadmap(
     sim: Sim, open_doors: frozenset[str], settings: RoadmapSettings
 ) -> Roadmap:
@@ -232,23 +267,9 @@ def load_or_build_roadmap(
     key = static_scene_key(sim.problem, open_doors, settings)
     path = cache_dir() / f"{key}.npz"
     if path.exists():
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                nodes = data["nodes"]
-                edges = data["edges"]
-                anchors = data["anchors"]
-            adjacency: list[list[int]] = [[] for _ in range(len(nodes))]
-            for a, b in edges:
-                adjacency[int(a)].append(int(b))
-                adjacency[int(b)].append(int(a))
-            return Roadmap(
-                nodes=nodes,
-                adjacency=tuple(tuple(sorted(a)) for a in adjacency),
-                anchors=tuple((float(x), float(y)) for x, y in anchors),
-                open_doors=open_doors,
-            )
-        except (OSError, KeyError, ValueError):
-            pass  # a damaged cache file is rebuilt below
+        cached = _read_cached_roadmap(path, open_doors)
+        if cached is not None:
+            return cached
     roadmap = build_roadmap(sim, open_doors, settings)
     edges = np.array(
         [(i, j) for i, nbrs in enumerate(roadmap.adjacency) for j in nbrs if i < j], dtype=np.int64

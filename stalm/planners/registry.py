@@ -61,9 +61,9 @@ class PlannerConfig:
         if self.proposer not in ("llm", "symbolic"):
             raise StalmError(f"unknown proposer '{self.proposer}' (available: llm, symbolic)")
         if self.batch < 1:
-            raise StalmError(f"N_batch must be at least 1, got {self.batch}")
-        if self.sims is not None and self.sims < 0:
-            raise StalmError(f"N_budget must not be negative, got {self.sims}")
+            raise StalmError(f"--batch (N_batch) must be at least 1, got {self.batch}")
+        if self.sims is not None and self.sims < 1:
+            raise StalmError(f"--sims (N_budget) must be at least 1, got {self.sims}")
         if self.execution not in ("progress", "best_q"):
             raise StalmError(
                 f"unknown execution rule '{self.execution}' (available: progress, best_q)"

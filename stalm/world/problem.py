@@ -7,6 +7,8 @@ YAML file is accepted anywhere a name is.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 from dataclasses import dataclass
 from functools import cached_property
@@ -18,6 +20,9 @@ from stalm.geometry.transforms import se2_to_world, wrap_angle
 from stalm.world import robot as robot_model
 from stalm.world.spec import ProblemSpec, load_problem_file
 from stalm.world.state import ObjectPose, RobotConf, State
+
+PROBLEM_HASH_FIELD = "problem_hash"
+"""The field of result files and trial records that holds :attr:`Problem.content_hash`."""
 
 
 @dataclass(frozen=True)
@@ -46,6 +51,28 @@ class Problem:
     @property
     def horizon(self) -> int:
         return self.spec.horizon
+
+    def state_mismatch(self, state: State) -> str | None:
+        """Why ``state`` cannot be a State of this problem (other objects or doors), or None."""
+        objects = {obj.name for obj in self.spec.objects}
+        have = set(state.object_names)
+        if have != objects:
+            extra, missing = sorted(have - objects), sorted(objects - have)
+            parts = [f"unknown objects {extra}"] if extra else []
+            parts += [f"missing objects {missing}"] if missing else []
+            return "; ".join(parts)
+        doors = {door.name for door in self.spec.doors}
+        unknown = sorted(set(state.open_doors) - doors)
+        if unknown:
+            return f"unknown doors {unknown}"
+        return None
+
+    @cached_property
+    def content_hash(self) -> str:
+        """A digest of the validated problem (not of its file: comments, layout and key order
+        do not change it). Results record it so a replay can tell it has the same problem."""
+        payload = json.dumps(self.spec.model_dump(mode="json"), sort_keys=True)
+        return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
     @cached_property
     def goal(self) -> tuple[GoalAtom, ...]:

@@ -14,15 +14,30 @@ standing pose side along the region's +x, v to the left), so layouts read like t
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Annotated, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from stalm.errors import StalmError
 from stalm.geometry.directions import DIRECTIONS
 
+_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,63}")
+
+
+def _check_name(name: str) -> str:
+    """Names go into PDDL, prompts, replies and terminals: letters, digits and underscores."""
+    if not _NAME.fullmatch(name):
+        raise ValueError(
+            f"{name!r:.80} is not a name: use up to 64 letters, digits and '_', starting with a "
+            "letter (names are written into PDDL and prompts)"
+        )
+    return name
+
+
+Name = Annotated[str, AfterValidator(_check_name)]
 Positive = Annotated[float, Field(gt=0)]
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
@@ -30,13 +45,14 @@ RGBA = tuple[float, float, float, float]
 
 
 class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # NaN passes every comparison check below (NaN > x is false) and crashes much later
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class WallSpec(_Spec):
     """A static box obstacle: room walls, the walls around P5's goal counter."""
 
-    name: str
+    name: Name
     center: Vec3
     size: tuple[Positive, Positive, Positive]
     yaw: float = 0.0
@@ -51,8 +67,8 @@ class RegionSpec(_Spec):
     of that pose: +x away from the robot is ``behind_of``, +y is ``left_of``.
     """
 
-    name: str
-    room: str
+    name: Name
+    room: Name
     center: Vec2
     yaw: float = 0.0
     size: tuple[Positive, Positive] = Field(description="footprint of the box (x, y) in its frame")
@@ -87,7 +103,7 @@ class DoorSpec(_Spec):
     which the robot can pull it (one per side).
     """
 
-    name: str
+    name: Name
     hinge: Vec2
     width: Positive
     height: Positive = 2.0
@@ -115,7 +131,7 @@ class ObjectSpec(_Spec):
     axis, grasped at a handle.
     """
 
-    name: str
+    name: Name
     shape: ShapeName
     radius: Positive | None = None
     height: Positive | None = None
@@ -171,7 +187,7 @@ class GoalSpec(_Spec):
 class ProblemSpec(_Spec):
     """A whole problem file."""
 
-    name: str
+    name: Name
     description: str = ""
     floor: tuple[Vec2, Vec2] = ((-5.0, -5.0), (5.0, 5.0))
     horizon: int = Field(default=20, gt=0)
@@ -209,11 +225,12 @@ class ProblemSpec(_Spec):
         )
         for group, names in groups:
             for index, name in enumerate(names):
-                if name in seen:
+                if name.lower() in seen:  # PDDL does not tell case apart
                     raise ValueError(
-                        f"{group}[{index}].name: '{name}' is already used by {seen[name]}"
+                        f"{group}[{index}].name: '{name}' is already used by {seen[name.lower()]}"
                     )
-                seen[name] = f"{group}[{index}]"
+                seen[name.lower()] = f"{group}[{index}]"
+        self._check_floor()
         regions = {r.name: r for r in self.regions}
         objects = {o.name for o in self.objects}
         for index, obj in enumerate(self.objects):
@@ -233,6 +250,7 @@ class ProblemSpec(_Spec):
                     f"objects[{index}].at: {obj.at} puts '{obj.name}' outside the usable area "
                     f"{region.usable_size} of '{obj.on}'"
                 )
+        self._check_overlaps()
         for index, goal in enumerate(self.goal):
             if goal.obj not in objects:
                 raise ValueError(f"goal[{index}].obj: '{goal.obj}' is not a movable object")
@@ -247,6 +265,36 @@ class ProblemSpec(_Spec):
                 raise ValueError(f"goal[{index}]: an object cannot be placed relative to itself")
         assert set(DIRECTIONS) >= {g.direction for g in self.goal}
         return self
+
+    def _check_floor(self) -> None:
+        """The robot's start and every standing pose lie on the floor."""
+        (x0, y0), (x1, y1) = self.floor
+        if not (x0 < x1 and y0 < y1):
+            raise ValueError(f"floor: {self.floor} is not (min corner, max corner)")
+        poses: list[tuple[str, Vec3]] = [("robot.base", self.robot.base)]
+        poses += [(f"regions[{i}].base_pose", r.base_pose) for i, r in enumerate(self.regions)]
+        for i, door in enumerate(self.doors):
+            poses += [
+                (f"doors[{i}].base_poses[{k}]", pose) for k, pose in enumerate(door.base_poses)
+            ]
+        for where, (x, y, _) in poses:
+            if not (x0 < x < x1 and y0 < y < y1):
+                raise ValueError(f"{where}: ({x:g}, {y:g}) is off the floor {self.floor}")
+
+    def _check_overlaps(self) -> None:
+        """No two objects on one region overlap (their start poses would be contradictory:
+        each both in front of and behind the other, the simulator pushing them apart)."""
+        by_region: dict[str, list[tuple[int, ObjectSpec]]] = {}
+        for index, obj in enumerate(self.objects):
+            by_region.setdefault(obj.on, []).append((index, obj))
+        for group in by_region.values():
+            for n, (i, a) in enumerate(group):
+                for j, b in group[n + 1 :]:
+                    if _footprints_overlap(a, b):
+                        raise ValueError(
+                            f"objects[{j}].at: '{b.name}' overlaps '{a.name}' (objects[{i}]) "
+                            f"on '{a.on}'"
+                        )
 
     def region(self, name: str) -> RegionSpec:
         for region in self.regions:
@@ -270,6 +318,57 @@ class ProblemSpec(_Spec):
     def placement_count(self) -> int:
         """n(R) + 4 n(O): the number of possible placements the paper reports per problem."""
         return len(self.regions) + 4 * len(self.objects)
+
+
+_OVERLAP_SLACK = 1e-6
+"""Footprints may touch; they overlap when they share more than this (m)."""
+
+
+def _footprint(obj: ObjectSpec) -> tuple[float, float, float, float, float | None]:
+    """(u, v, yaw, half x, half y) of a grill's rectangle, or (u, v, 0, r, None) of a circle,
+    in the frame of the region the object stands on."""
+    if obj.shape == "grill":
+        hx, hy, _ = obj.half_extents
+        return (obj.at[0], obj.at[1], obj.yaw, hx, hy)
+    assert obj.radius is not None
+    return (obj.at[0], obj.at[1], 0.0, obj.radius, None)
+
+
+def _corners(u: float, v: float, yaw: float, hx: float, hy: float) -> list[tuple[float, float]]:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return [
+        (u + c * du - s * dv, v + s * du + c * dv)
+        for du, dv in ((hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy))
+    ]
+
+
+def _footprints_overlap(a: ObjectSpec, b: ObjectSpec) -> bool:
+    """Do the 2D footprints of two objects on one region overlap?"""
+    ua, va, ya, ra, ha = _footprint(a)
+    ub, vb, yb, rb, hb = _footprint(b)
+    if ha is None and hb is None:
+        return math.dist((ua, va), (ub, vb)) < ra + rb - _OVERLAP_SLACK
+    if ha is None or hb is None:  # a rectangle and a circle
+        (cu, cv, cr), (u, v, yaw, hx, hy) = (
+            ((ua, va, ra), (ub, vb, yb, rb, hb))
+            if ha is None
+            else ((ub, vb, rb), (ua, va, ya, ra, ha))
+        )
+        assert hy is not None
+        c, s = math.cos(yaw), math.sin(yaw)
+        du, dv = cu - u, cv - v
+        lu, lv = c * du + s * dv, -s * du + c * dv  # circle centre in the rectangle's frame
+        nearest = (max(-hx, min(hx, lu)), max(-hy, min(hy, lv)))
+        return math.dist((lu, lv), nearest) < cr - _OVERLAP_SLACK
+    assert ha is not None and hb is not None
+    first, second = _corners(ua, va, ya, ra, ha), _corners(ub, vb, yb, rb, hb)
+    for yaw in (ya, ya + math.pi / 2, yb, yb + math.pi / 2):  # separating axis theorem
+        axis = (math.cos(yaw), math.sin(yaw))
+        pa = [x * axis[0] + y * axis[1] for x, y in first]
+        pb = [x * axis[0] + y * axis[1] for x, y in second]
+        if min(pa) >= max(pb) - _OVERLAP_SLACK or min(pb) >= max(pa) - _OVERLAP_SLACK:
+            return False
+    return True
 
 
 def _rotated_half_extent(hx: float, hy: float, yaw: float) -> tuple[float, float]:
@@ -312,8 +411,50 @@ def load_problem_file(path: Path) -> ProblemSpec:
         text = path.read_text(encoding="utf-8")
     except OSError as error:
         raise StalmError(f"{path}: cannot read problem file ({error.strerror})") from None
+    except UnicodeDecodeError as error:
+        raise StalmError(
+            f"{path}: not a problem file (not UTF-8 text: byte {error.object[error.start]:#04x} "
+            f"at offset {error.start})"
+        ) from None
+    if len(text) > MAX_PROBLEM_FILE_CHARS:
+        raise StalmError(
+            f"{path}: a problem file of {len(text)} characters is too long "
+            f"(at most {MAX_PROBLEM_FILE_CHARS})"
+        )
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=_LOADER)  # a safe loader (libyaml's when available)
     except yaml.YAMLError as error:
         raise StalmError(f"{path}: not valid YAML: {error}") from None
+    except (ValueError, OverflowError, RecursionError) as error:  # e.g. date 2001-02-30
+        raise StalmError(f"{path}: not valid YAML: {type(error).__name__}: {error}") from None
+    problem = _shared_or_huge(data)
+    if problem is not None:
+        raise StalmError(f"{path}: {problem}")
     return parse_problem(data, str(path))
+
+
+MAX_PROBLEM_FILE_CHARS = 1_000_000
+"""The six problems are 3 to 6 kB; a file a thousand times larger is not a problem file."""
+
+
+_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+"""libyaml's safe loader is fast and limits nesting; the pure-Python one recurses for seconds."""
+MAX_PROBLEM_NODES = 100_000
+
+
+def _shared_or_huge(data: object) -> str | None:
+    """Why loaded YAML is no problem file: too many values once aliases are expanded (a few
+    lines of nested ``*name`` aliases stand for billions of values, or a cycle for infinitely
+    many, and would validate for hours). The six problems hold about a thousand."""
+    stack = [data]
+    count = 0
+    while stack:
+        node = stack.pop()
+        count += 1
+        if count > MAX_PROBLEM_NODES:
+            return f"more than {MAX_PROBLEM_NODES} values (aliases expanded): not a problem file"
+        if isinstance(node, dict):
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
+    return None

@@ -8,6 +8,7 @@ from the simulator equals the State it was set from, and search-tree nodes merge
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -184,23 +185,53 @@ class State:
 
     @staticmethod
     def from_json(data: dict[str, object]) -> State:
-        poses_raw = data["poses"]
-        robot_raw = data["robot"]
-        assert isinstance(poses_raw, dict) and isinstance(robot_raw, dict)
+        """The inverse of :meth:`to_json`. A State file may come from anywhere: anything
+        malformed (a missing field, a wrong type, a number that is not finite) raises
+        ValueError naming the field."""
+        if not isinstance(data, dict):
+            raise ValueError("a State is a JSON object")
+        poses_raw, robot_raw = data.get("poses"), data.get("robot")
+        if not isinstance(poses_raw, dict):
+            raise ValueError("'poses' must map object names to [x, y, z, yaw]")
+        if not isinstance(robot_raw, dict):
+            raise ValueError("'robot' must be an object with 'base', 'lift' and 'arm'")
+        poses = []
+        for name, value in poses_raw.items():
+            poses.append((name, ObjectPose.make(*_finite(value, 4, f"poses.{name}"))))
         held_raw = data.get("held")
         held = None
-        if isinstance(held_raw, dict):
+        if held_raw is not None:
+            if not isinstance(held_raw, dict) or not isinstance(held_raw.get("obj"), str):
+                raise ValueError("'held' must be null or an object with 'obj', 'position', ...")
             held = Grasp.make(
-                held_raw["obj"], tuple(held_raw["position"]), tuple(held_raw["orientation"])
+                held_raw["obj"],
+                _finite(held_raw.get("position"), 3, "held.position"),
+                _finite(held_raw.get("orientation"), 4, "held.orientation"),
             )
         doors = data.get("open_doors", [])
-        assert isinstance(doors, list)
-        offset = data.get("held_yaw_offset", 0.0)
-        assert isinstance(offset, int | float)
+        if not isinstance(doors, list) or not all(isinstance(d, str) for d in doors):
+            raise ValueError("'open_doors' must be a list of door names")
+        (offset,) = _finite([data.get("held_yaw_offset", 0.0)], 1, "held_yaw_offset")
         return State(
-            poses=tuple(sorted((n, ObjectPose.make(*v)) for n, v in poses_raw.items())),
+            poses=tuple(sorted(poses)),
             open_doors=frozenset(doors),
-            robot=RobotConf.make(robot_raw["base"], robot_raw["lift"], robot_raw["arm"]),
+            robot=RobotConf.make(
+                _finite(robot_raw.get("base"), 3, "robot.base"),
+                _finite([robot_raw.get("lift")], 1, "robot.lift")[0],
+                _finite(robot_raw.get("arm"), 7, "robot.arm"),
+            ),
             held=held,
-            held_yaw_offset=float(offset),
+            held_yaw_offset=offset,
         )
+
+
+def _finite(value: object, length: int, where: str) -> tuple[float, ...]:
+    """``value`` as ``length`` finite floats, or ValueError naming ``where``."""
+    if not isinstance(value, list | tuple) or len(value) != length:
+        raise ValueError(f"'{where}' must be a list of {length} numbers")
+    numbers = []
+    for item in value:
+        if isinstance(item, bool) or not isinstance(item, int | float) or not math.isfinite(item):
+            raise ValueError(f"'{where}' holds {item!r:.20}, not a finite number")
+        numbers.append(float(item))
+    return tuple(numbers)

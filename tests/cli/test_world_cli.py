@@ -78,7 +78,7 @@ def test_predicates_prompt_and_parse_reply_commands(monkeypatch, capsys, tmp_pat
 
 
 def test_solve_with_the_uct_planner_writes_json_that_replays(
-    monkeypatch, capsys, tmp_path: Path
+    monkeypatch, capsys, tmp_path: Path, problems
 ) -> None:
     result_file = tmp_path / "p2.json"
     code = run_cli(
@@ -98,6 +98,7 @@ def test_solve_with_the_uct_planner_writes_json_that_replays(
     )
     data = json.loads(result_file.read_text())
     assert data["planner"] == "uct" and data["problem"] == "P2"
+    assert data["problem_hash"] == problems["P2"].content_hash
     assert code == (0 if data["success"] else 1)
     out = capsys.readouterr().out
     assert "P2 with uct (seed 0)" in out

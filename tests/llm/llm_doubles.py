@@ -27,6 +27,10 @@ class ScriptedReply:
     body: Any = None  # dict/list -> JSON; str -> sent as is
     delay_s: float = 0.0
     headers: dict[str, str] = field(default_factory=dict)
+    content_type: str | None = None
+    """None: JSON for dict/list bodies, text/plain for strings."""
+    chunk_delay_s: float = 0.0
+    """Above 0, the body is sent one byte at a time with this pause (a slow stream)."""
 
 
 def chat_completion(
@@ -66,6 +70,8 @@ class ScriptedHTTPServerDouble:
         self.responder: Any = None
         self.requests: list[dict[str, Any]] = []
         self.paths: list[str] = []
+        self.authorizations: list[str] = []
+        """The Authorization header of each POST ('' when absent)."""
         self._lock = threading.Lock()
         double = self
 
@@ -81,7 +87,7 @@ class ScriptedHTTPServerDouble:
                 ).encode()
                 try:
                     self.send_response(reply.status)
-                    content_type = (
+                    content_type = reply.content_type or (
                         "text/plain" if isinstance(reply.body, str) else ("application/json")
                     )
                     self.send_header("Content-Type", content_type)
@@ -89,8 +95,14 @@ class ScriptedHTTPServerDouble:
                     for name, value in reply.headers.items():
                         self.send_header(name, value)
                     self.end_headers()
-                    self.wfile.write(payload)
-                except (BrokenPipeError, ConnectionResetError):
+                    if reply.chunk_delay_s > 0:
+                        for index in range(len(payload)):
+                            self.wfile.write(payload[index : index + 1])
+                            self.wfile.flush()
+                            time.sleep(reply.chunk_delay_s)
+                    else:
+                        self.wfile.write(payload)
+                except OSError:  # broken pipe or reset
                     pass  # the client gave up (timeout tests)
 
             def do_GET(self) -> None:
@@ -117,6 +129,7 @@ class ScriptedHTTPServerDouble:
                 with double._lock:
                     double.requests.append(body)
                     double.paths.append(self.path)
+                    double.authorizations.append(self.headers.get("Authorization", ""))
                     if double.responder is not None:
                         reply = double.responder(body)
                     else:

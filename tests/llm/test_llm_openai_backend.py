@@ -256,3 +256,124 @@ def test_openai_itself_needs_key_and_model(monkeypatch: pytest.MonkeyPatch) -> N
 def test_unknown_constraint_style_is_a_user_error() -> None:
     with pytest.raises(StalmError, match="constraint style"):
         OpenAICompatibleBackend(model="m", base_url="http://127.0.0.1:1/v1", constraint_style="x")
+
+
+# --- Issue 16: the request's deadline bounds every call, retries and all -----------------------
+
+
+def _deadline_request(seconds: float) -> LLMRequest:
+    return LLMRequest(
+        system="sys", user="hello", n=1, max_tokens=32, seed=7, deadline=time.monotonic() + seconds
+    )
+
+
+def test_a_hanging_server_is_cut_at_the_deadline(
+    scripted_server: ScriptedHTTPServerDouble,
+) -> None:
+    scripted_server.script = [ScriptedReply(body=chat_completion(["late"]), delay_s=30)]
+    backend = make(scripted_server, timeout_s=20.0)
+    started = time.monotonic()
+    response = backend.complete(_deadline_request(1.0))
+    assert time.monotonic() - started < 2.5
+    assert response.replies == ()  # nothing answered before the deadline
+
+
+def test_a_slow_stream_is_cut_at_the_deadline(scripted_server: ScriptedHTTPServerDouble) -> None:
+    # headers at once, then the body one byte every 0.1 s: each read is quick, the whole is not
+    scripted_server.script = [ScriptedReply(body=chat_completion(["x" * 200]), chunk_delay_s=0.1)]
+    backend = make(scripted_server, timeout_s=20.0)
+    started = time.monotonic()
+    response = backend.complete(_deadline_request(1.0))
+    assert time.monotonic() - started < 2.5
+    assert response.replies == ()
+
+
+def test_retries_stop_at_the_deadline(scripted_server: ScriptedHTTPServerDouble) -> None:
+    scripted_server.script = [ScriptedReply(status=500, body={"error": {"message": "boom"}})]
+    backend = make(
+        scripted_server,
+        sleep=time.sleep,
+        retry=RetryPolicy(max_attempts=10, base_delay_s=0.4, max_delay_s=0.4),
+    )
+    started = time.monotonic()
+    response = backend.complete(_deadline_request(1.0))
+    assert time.monotonic() - started < 2.0
+    assert response.replies == ()
+    assert 1 <= len(scripted_server.requests) <= 4
+
+
+def test_a_backoff_longer_than_the_time_left_is_not_slept(
+    scripted_server: ScriptedHTTPServerDouble,
+) -> None:
+    scripted_server.script = [ScriptedReply(status=503, body={"error": {"message": "busy"}})]
+    sleep = RecordingSleepDouble()
+    retry = RetryPolicy(max_attempts=4, base_delay_s=30.0, max_delay_s=60.0)
+    response = make(scripted_server, sleep, retry=retry).complete(_deadline_request(2.0))
+    assert response.replies == () and sleep.delays == []
+    assert len(scripted_server.requests) == 1
+
+
+def test_a_passed_deadline_sends_nothing(scripted_server: ScriptedHTTPServerDouble) -> None:
+    scripted_server.script = [ScriptedReply(body=chat_completion(["hi"]))]
+    response = make(scripted_server).complete(_deadline_request(-1.0))
+    assert response.replies == () and scripted_server.requests == []
+
+
+def test_an_answer_before_the_deadline_is_kept(scripted_server: ScriptedHTTPServerDouble) -> None:
+    scripted_server.script = [ScriptedReply(body=chat_completion(["in time"]), delay_s=0.2)]
+    response = make(scripted_server).complete(_deadline_request(5.0))
+    assert response.texts == ("in time",)
+
+
+# --- Issue 16: malformed answers and URLs are one clear error; keys go where they belong -------
+
+
+def test_malformed_json_body_is_one_clear_error(scripted_server: ScriptedHTTPServerDouble) -> None:
+    scripted_server.script = [
+        ScriptedReply(body='{"choices": [{"message": ', content_type="application/json")
+    ]
+    with pytest.raises(StalmError) as error:
+        make(scripted_server).complete(REQUEST)
+    message = str(error.value)
+    assert "JSON" in message and scripted_server.base_url in message
+
+
+@pytest.mark.parametrize("url", ["http://[::1/v1", "http://:80/v1", "ftp://host/v1", "http://"])
+def test_a_malformed_base_url_is_one_clear_error(url: str) -> None:
+    with pytest.raises(StalmError, match="base URL"):
+        OpenAICompatibleBackend(model="m", base_url=url)
+
+
+def test_openai_key_is_not_sent_to_a_custom_server(
+    scripted_server: ScriptedHTTPServerDouble, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("OPENAI_API_KEY", "sk-secret-openai-key")
+    scripted_server.script = [ScriptedReply(body=chat_completion(["hi"]))]
+    OpenAICompatibleBackend(model="m", base_url=scripted_server.base_url).complete(REQUEST)
+    assert "sk-secret-openai-key" not in scripted_server.authorizations[0]
+    monkeypatch.setenv("STALM_LLM_API_KEY", "sk-for-my-server")
+    OpenAICompatibleBackend(model="m", base_url=scripted_server.base_url).complete(REQUEST)
+    assert scripted_server.authorizations[1] == "Bearer sk-for-my-server"
+
+
+def test_openai_key_still_goes_to_openai(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("OPENAI_API_KEY", "sk-openai")
+    assert OpenAICompatibleBackend(model="gpt-4-turbo").key_source == "OPENAI_API_KEY"
+    backend = OpenAICompatibleBackend(model="gpt-4-turbo", base_url="https://api.openai.com/v1/")
+    assert backend.key_source == "OPENAI_API_KEY"
+    for lookalike in ("https://api.openai.com.evil.example/v1", "http://api.openai.com/v1"):
+        assert OpenAICompatibleBackend(model="m", base_url=lookalike).key_source is None
+
+
+def test_the_reply_cache_accepts_a_batch_the_deadline_cut_short(
+    scripted_server: ScriptedHTTPServerDouble, tmp_path
+) -> None:
+    from stalm.llm.cache import CachedBackend, ReplyCache
+
+    scripted_server.script = [ScriptedReply(status=503, body={"error": {"message": "busy"}})]
+    retry = RetryPolicy(max_attempts=4, base_delay_s=30.0, max_delay_s=60.0)
+    backend = make(scripted_server, RecordingSleepDouble(), retry=retry)
+    cached = CachedBackend(backend, ReplyCache(tmp_path / "replies.sqlite"), mode="use")
+    request = LLMRequest(system="s", user="u", n=3, seed=1, deadline=time.monotonic() + 5.0)
+    response = cached.complete(request)  # the backoff would outlast the deadline: no replies
+    assert response.replies == ()

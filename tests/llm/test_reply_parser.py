@@ -20,7 +20,7 @@ import pytest
 
 from stalm.domain.actions import DiscreteAction, Open, Pick, Place
 from stalm.domain.vocabulary import Vocabulary
-from stalm.llm.reply_parser import ParsedReply, parse_reply
+from stalm.llm.reply_parser import MAX_REPLY_CHARS, ParsedReply, parse_reply
 
 from .scenarios import P1, P2, P3, P4, P5, P6
 
@@ -353,3 +353,60 @@ def test_escaped_quotes_and_no_code_execution() -> None:
     assert parsed.plan == ()
     assert parsed.errors[0].kind == "unknown_name"
     assert parsed.steps[1].action == Pick("coke")
+
+
+# --- Issue 16: time linear in the reply's length, whatever the reply -------------------------
+
+ADVERSARIAL = [
+    "plan = [(",
+    "plan = [\n#]",
+    "plan = [('pick', 'coke') # ]",
+    "[(",
+    "('",
+    "plan=[[",
+    "#]\n",
+]
+
+
+def _parse_seconds(text: str, vocabulary: Vocabulary) -> float:
+    import time
+
+    started = time.perf_counter()
+    parse_reply(text, vocabulary)
+    return time.perf_counter() - started
+
+
+@pytest.mark.parametrize("pattern", ADVERSARIAL)
+def test_adversarial_replies_at_the_length_cap_parse_quickly(
+    pattern: str, p5_vocabulary: Vocabulary
+) -> None:
+    text = pattern * (MAX_REPLY_CHARS // len(pattern) + 1)
+    assert _parse_seconds(text, p5_vocabulary) < 2.0
+
+
+def test_a_huge_reply_is_read_up_to_the_cap_and_says_so(p5_vocabulary: Vocabulary) -> None:
+    text = "plan = [(" * 600_000  # 5.4 MB
+    assert _parse_seconds(text, p5_vocabulary) < 2.0
+    plan = "plan = [('pick', 'coke')]"
+    parsed = parse_reply(plan + " " * (MAX_REPLY_CHARS + 10), p5_vocabulary)
+    assert [a.as_tuple() for a in parsed.plan] == [("pick", "coke")]
+    assert parsed.reason is not None and f"first {MAX_REPLY_CHARS}" in parsed.reason
+
+
+def test_the_scan_itself_is_linear_beyond_the_cap(p5_vocabulary: Vocabulary) -> None:
+    import time
+
+    from stalm.llm.reply_parser import _choose_list
+
+    for pattern in ("plan = [(", "plan = [\n#]"):
+        started = time.perf_counter()
+        _choose_list(pattern * 100_000)  # ~1 MB, past the cap: the scanner alone
+        assert time.perf_counter() - started < 3.0
+
+
+def test_a_revised_plan_after_an_unclosed_one_is_still_chosen(p5_vocabulary: Vocabulary) -> None:
+    text = "plan = [('pick', 'coke'),\nActually:\nplan = [('open', 'kitchen_door')]"
+    parsed = parse_reply(text, p5_vocabulary)
+    assert [a.as_tuple() for a in parsed.plan] == [("open", "kitchen_door")]
+    text = "plan = [('pick', 'coke') # then plan = [ something\n]"
+    assert [a.as_tuple() for a in parse_reply(text, p5_vocabulary).plan] == [("pick", "coke")]

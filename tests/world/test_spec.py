@@ -125,3 +125,95 @@ def test_a_user_problem_file_with_more_objects_works(
     mine = load_problem(path)
     assert mine.spec.placement_count == 7 + 4 * 5
     assert mine.initial_state.has_pose("mug")
+
+
+# --- Issue 16: files that parse but describe an impossible or unsafe problem ------------------
+
+
+def _load_mutated(problems: dict[str, Problem], tmp_path: Path, mutate: object) -> None:
+    data = _p2_data(problems)
+    mutate(data)  # type: ignore[operator]
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(data))
+    load_problem_file(path)
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda d: d["objects"][0].update(at=[float("nan"), 0.0]), r"objects\[0\]\.at.*finite"),
+        (lambda d: d["regions"][0].update(top=float("inf")), r"regions\[0\]\.top.*finite"),
+        (lambda d: d["robot"].update(base=[0.5, float("-inf"), 0.0]), r"robot\.base.*finite"),
+        (lambda d: d["doors"][0].update(width=float("nan")), r"doors\[0\]\.width"),
+        (lambda d: d.update(time_budget_s=float("nan")), r"time_budget_s"),
+        (
+            lambda d: d["objects"][2].update(at=d["objects"][3]["at"]),
+            r"objects\[3\]\.at: 'bottle3' overlaps 'bottle2'",
+        ),
+        (
+            lambda d: d["objects"][0].update(at=[0.12, 0.03]),
+            r"overlaps 'salter'",
+        ),
+        (lambda d: d["objects"][0].update(name=")("), r"objects\[0\]\.name: '\)\(' is not a name"),
+        (lambda d: d["regions"][1].update(name="a b"), r"regions\[1\]\.name: 'a b' is not a"),
+        (lambda d: d["doors"][0].update(name="door;rm"), r"doors\[0\]\.name"),
+        (lambda d: d["walls"][0].update(name="x" * 65), r"walls\[0\]\.name"),
+        (lambda d: d["regions"][0].update(room="[/]"), r"regions\[0\]\.room"),
+        (lambda d: d.update(name="P 2"), r"name: 'P 2' is not a name"),
+        (
+            lambda d: d["objects"][1].update(name="SALTER"),
+            r"objects\[1\]\.name: 'SALTER' is already used",
+        ),
+        (lambda d: d["robot"].update(base=[7.0, 0.0, 0.0]), r"robot\.base: .*off the floor"),
+        (
+            lambda d: d["regions"][2].update(base_pose=[0.0, -6.0, 0.0]),
+            r"regions\[2\]\.base_pose: .*off the floor",
+        ),
+    ],
+)
+def test_problem_files_that_validate_but_are_wrong_are_refused(
+    problems: dict[str, Problem], tmp_path: Path, mutate: object, message: str
+) -> None:
+    with pytest.raises(StalmError, match=message):
+        _load_mutated(problems, tmp_path, mutate)
+
+
+def test_a_grill_beside_a_can_is_fine_but_on_it_is_not(
+    problems: dict[str, Problem], tmp_path: Path
+) -> None:
+    p5 = yaml.safe_load(Path(problems["P5"].source).read_text())
+    grills = [o for o in p5["objects"] if o["shape"] == "grill"]
+    assert grills  # P5's grill stands beside other objects: that loads
+    grill = grills[0]
+    can = {"name": "can", "shape": "cylinder", "radius": 0.03, "height": 0.1, "on": grill["on"]}
+    p5["objects"].append({**can, "at": list(grill["at"])})
+    path = tmp_path / "p5.yaml"
+    path.write_text(yaml.safe_dump(p5))
+    with pytest.raises(StalmError, match=f"'can' overlaps '{grill['name']}'"):
+        load_problem_file(path)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("name: 2001-02-30\n", "not valid YAML"),
+        ("a: &a [*a]\n", "more than"),
+        (
+            "".join(
+                f"l{i}: &l{i} [" + ", ".join([f"*l{i - 1}"] * 9) + "]\n" for i in range(1, 12)
+            ).replace("*l0", "0"),
+            "more than",
+        ),
+        ("[" * 5000 + "]" * 5000, "not valid YAML|mapping"),
+        ("a: '" + "x" * 1_000_001 + "'\n", "too long"),
+    ],
+)
+def test_hostile_yaml_is_refused_quickly(tmp_path: Path, text: str, message: str) -> None:
+    import time
+
+    path = tmp_path / "hostile.yaml"
+    path.write_text(text)
+    started = time.perf_counter()
+    with pytest.raises(StalmError, match=message):
+        load_problem_file(path)
+    assert time.perf_counter() - started < 2.0

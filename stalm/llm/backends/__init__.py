@@ -13,7 +13,8 @@ Accepted spec strings (:data:`SPEC_HELP` is the same text, for ``--help``):
     Any GGUF file, in this process.
 ``openai``, ``openai:MODEL``
     OpenAI's API (or ``$STALM_LLM_BASE_URL``), key from ``$STALM_LLM_API_KEY`` /
-    ``$OPENAI_API_KEY``; the model from the spec or ``$STALM_LLM_MODEL``.
+    ``$OPENAI_API_KEY`` (the latter only for the OpenAI API itself); the model from the spec
+    or ``$STALM_LLM_MODEL``.
 ``ollama[:MODEL]``, ``vllm[:MODEL]``, ``lmstudio[:MODEL]``, ``llamacpp[:MODEL]``
     That server at its usual local address (127.0.0.1 ports 11434, 8000, 1234, 8080).
     ``llamacpp`` sends output constraints as GBNF grammars, the others as JSON schemas.

@@ -13,19 +13,31 @@ completions API, with three differences handled here:
   form); llama.cpp's servers take a GBNF grammar in the ``grammar`` field
   (``constraint_style="gbnf"``).
 * **Failures.** Rate limits, 5xx and timeouts are retried with bounded exponential backoff;
-  a wrong key, an unknown model or an unreachable server is one clear
-  :class:`~stalm.errors.StalmError` naming the URL and the model.
+  a wrong key, an unknown model, an unreachable server or a body that is not JSON is one
+  clear :class:`~stalm.errors.StalmError` naming the URL and the model.
+
+A request's ``deadline`` (a trial's time budget) bounds everything one request does: each
+attempt waits at most until the deadline (the whole answer, not just each read: a server that
+trickles its body slowly is cut too), no backoff sleeps past it, and past it no attempt
+starts. What was not answered by then is left out of the response, as the embedded backend
+does; the planner sees its time is up and writes its result.
+
+``OPENAI_API_KEY`` is only ever sent to the OpenAI API itself (``https://api.openai.com``);
+any other server gets ``STALM_LLM_API_KEY`` or no key, so pointing ``--llm`` at some host
+cannot leak an OpenAI key to it.
 """
 
 from __future__ import annotations
 
+import functools
 import os
 import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, cast, get_args
+from typing import TYPE_CHECKING, Any, Literal, TypeVar, cast, get_args
+from urllib.parse import urlsplit
 
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMReply, LLMRequest, LLMResponse
@@ -45,6 +57,66 @@ OPENAI_DEFAULT_BASE_URL = "https://api.openai.com/v1"
 # Local servers accept any key, but the openai client refuses to start without one.
 _PLACEHOLDER_KEY = "sk-no-key-required"
 _RETRYABLE_STATUS = frozenset({408, 409, 429})
+OPENAI_KEY_ENV = "OPENAI_API_KEY"
+DISCOVERY_TIMEOUT_S = 15.0
+"""Longest wait for a server's model list: it is asked outside any trial's deadline."""
+_T = TypeVar("_T")
+
+
+class _DeadlinePassed(Exception):
+    """Raised inside the backend when a request's deadline ends a call; never escapes it."""
+
+
+def _left(deadline: float | None) -> float | None:
+    """Seconds until ``deadline`` (None: no deadline); 0 or less when it has passed."""
+    return None if deadline is None else deadline - time.monotonic()
+
+
+def _run_until(call: Callable[[], _T], deadline: float | None) -> _T:
+    """``call()``, abandoned at ``deadline``: a daemon thread runs it and is waited on only
+    until then. HTTP timeouts bound each read, not a whole body a server trickles out slowly,
+    so only this holds a deadline against any server. The abandoned call ends by its own
+    timeout; being a daemon thread it never keeps the process alive."""
+    if deadline is None:
+        return call()
+    outcome: list[Any] = []
+    done = threading.Event()
+
+    def target() -> None:
+        try:
+            outcome.append((True, call()))
+        except BaseException as error:  # handed to the waiting thread as is
+            outcome.append((False, error))
+        done.set()
+
+    threading.Thread(target=target, name="stalm-llm-call", daemon=True).start()
+    if not done.wait(max(0.0, deadline - time.monotonic())):
+        raise _DeadlinePassed
+    ok, value = outcome[0]
+    if not ok:
+        raise value
+    return cast(_T, value)
+
+
+def _is_openai_api(url: str) -> bool:
+    """True only for OpenAI's own API over HTTPS (not a look-alike host, not plain HTTP)."""
+    parts = urlsplit(url)
+    return parts.scheme == "https" and parts.hostname == "api.openai.com"
+
+
+def _check_base_url(url: str) -> str:
+    """``url`` if it is an http(s) URL with a host, else a StalmError naming it."""
+    try:
+        parts = urlsplit(url)
+        host = parts.hostname
+        parts.port  # noqa: B018 - raises ValueError for a port that is not a number
+    except ValueError as error:
+        raise StalmError(f"base URL {url!r} is not a valid URL ({error})") from None
+    if parts.scheme not in ("http", "https") or not host:
+        raise StalmError(
+            f"base URL {url!r} is not an http(s) URL with a host, e.g. http://127.0.0.1:8080/v1"
+        )
+    return url
 
 
 @dataclass(frozen=True)
@@ -116,10 +188,10 @@ class OpenAICompatibleBackend:
     Arguments left as None come from the environment: ``base_url`` from
     ``STALM_LLM_BASE_URL`` then ``OPENAI_BASE_URL`` (else OpenAI itself); ``model`` from
     ``STALM_LLM_MODEL`` (else, for a local server, the first model it lists); ``api_key``
-    from ``STALM_LLM_API_KEY`` then ``OPENAI_API_KEY``; ``constraint_style`` from
-    ``STALM_LLM_CONSTRAINT_STYLE`` (else ``"json_schema"``). Nothing touches the network
-    until the first request. ``sleep`` is the backoff's clock, injectable so tests need not
-    wait.
+    from ``STALM_LLM_API_KEY``, then, for the OpenAI API only, ``OPENAI_API_KEY``;
+    ``constraint_style`` from ``STALM_LLM_CONSTRAINT_STYLE`` (else ``"json_schema"``).
+    Nothing touches the network until the first request. ``sleep`` is the backoff's clock,
+    injectable so tests need not wait.
     """
 
     def __init__(
@@ -136,13 +208,20 @@ class OpenAICompatibleBackend:
         max_concurrency: int = 8,
     ) -> None:
         self._base_url = (base_url or _env(BASE_URL_ENV, "OPENAI_BASE_URL") or "").rstrip("/")
-        self._is_openai = not self._base_url or self._base_url == OPENAI_DEFAULT_BASE_URL
+        if self._base_url:
+            _check_base_url(self._base_url)
+        self._is_openai = not self._base_url or _is_openai_api(self._base_url)
         self._model = model or _env(MODEL_ENV)
-        key = api_key or _env(API_KEY_ENV, "OPENAI_API_KEY")
+        key, self._key_source = api_key, "argument" if api_key else None
+        if not key:
+            # an OpenAI key is for OpenAI: another server never sees it (module docstring)
+            names = (API_KEY_ENV, OPENAI_KEY_ENV) if self._is_openai else (API_KEY_ENV,)
+            self._key_source = next((name for name in names if os.environ.get(name)), None)
+            key = os.environ[self._key_source] if self._key_source else None
         if self._is_openai:
             if not key:
                 raise StalmError(
-                    f"no API key for {self.url}: set {API_KEY_ENV} or OPENAI_API_KEY "
+                    f"no API key for {self.url}: set {API_KEY_ENV} or {OPENAI_KEY_ENV} "
                     f"(or {BASE_URL_ENV} to use a local server instead)"
                 )
             if not self._model:
@@ -182,6 +261,12 @@ class OpenAICompatibleBackend:
         return self._constraint_style
 
     @property
+    def key_source(self) -> str | None:
+        """Where the API key sent comes from (an environment variable's name, or
+        ``"argument"``); None when no key is sent."""
+        return self._key_source
+
+    @property
     def model(self) -> str:
         """The model name; for a local server given none, the first one it lists (one call)."""
         with self._lock:
@@ -203,15 +288,23 @@ class OpenAICompatibleBackend:
     def _discover_model(self) -> str:
         import openai
 
+        wait_s = min(self._timeout_s, DISCOVERY_TIMEOUT_S)
         try:
-            listing = self._client.models.list()
+            listing = _run_until(
+                lambda: self._client.models.list(timeout=wait_s), time.monotonic() + wait_s
+            )
             names = [entry.id for entry in listing.data]
+        except (_DeadlinePassed, openai.APITimeoutError):
+            raise StalmError(
+                f"{self.url} did not list its models within {wait_s:g} s; name the model with "
+                f"{MODEL_ENV} or --llm URL#MODEL"
+            ) from None
         except openai.APIConnectionError as error:
             raise StalmError(
                 f"cannot reach {self.url} to list its models ({error}); is the server running? "
                 f"Or name the model with {MODEL_ENV}"
             ) from error
-        except (openai.OpenAIError, AttributeError, TypeError) as error:
+        except (openai.OpenAIError, AttributeError, TypeError, ValueError) as error:
             raise StalmError(
                 f"cannot list the models of {self.url} ({error}); name the model with "
                 f"{MODEL_ENV} or --llm URL#MODEL"
@@ -223,21 +316,26 @@ class OpenAICompatibleBackend:
     def complete(self, request: LLMRequest) -> LLMResponse:
         model = self.model
         replies: list[LLMReply] = []
-        if request.n == 1 or self._server_honours_n is not False:
-            replies = self._call(request, model, n=request.n, seed=request.seed)[: request.n]
-            if request.n > 1:
-                with self._lock:
-                    self._server_honours_n = len(replies) == request.n
-        missing = range(len(replies), request.n)
-        if missing:
-            workers = min(len(missing), self._max_concurrency)
-            with ThreadPoolExecutor(max_workers=workers) as pool:
-                futures = [
-                    pool.submit(self._call, request, model, 1, request.sample_seed(i))
-                    for i in missing
-                ]
-                for future in futures:
-                    replies.extend(future.result()[:1])
+        try:
+            if request.n == 1 or self._server_honours_n is not False:
+                replies = self._call(request, model, n=request.n, seed=request.seed)[: request.n]
+                if request.n > 1:
+                    with self._lock:
+                        self._server_honours_n = len(replies) == request.n
+            missing = range(len(replies), request.n)
+            if missing:
+                workers = min(len(missing), self._max_concurrency)
+                with ThreadPoolExecutor(max_workers=workers) as pool:
+                    futures = [
+                        pool.submit(self._call, request, model, 1, request.sample_seed(i))
+                        for i in missing
+                    ]
+                    for future in futures:
+                        replies.extend(future.result()[:1])
+        except _DeadlinePassed:
+            # what was answered in time is the response (see the module docstring); it stops
+            # at the first sample cut, so reply i is still sample i (the cache keys on that)
+            pass
         return LLMResponse(replies=tuple(replies), backend=self.name, model=model)
 
     def _request_kwargs(
@@ -271,19 +369,33 @@ class OpenAICompatibleBackend:
         return kwargs
 
     def _call(self, request: LLMRequest, model: str, n: int, seed: int | None) -> list[LLMReply]:
-        """One HTTP request (with retries) -> its choices as replies."""
+        """One HTTP request (with retries) -> its choices as replies; :class:`_DeadlinePassed`
+        when the request's deadline comes first (see the module docstring)."""
         import openai
 
         kwargs = self._request_kwargs(request, model, n, seed)
         where = self._describe(model)
+        deadline = request.deadline
         last_problem = ""
         for attempt in range(self._retry.max_attempts):
+            left = _left(deadline)
+            if left is not None and left <= 0:
+                raise _DeadlinePassed
+            timeout_s = self._timeout_s if left is None else min(self._timeout_s, left)
             started = time.perf_counter()
             retry_after: float | None = None
             try:
-                completion = self._client.chat.completions.create(**kwargs)
+                completion = _run_until(
+                    functools.partial(
+                        self._client.chat.completions.create, **kwargs, timeout=timeout_s
+                    ),
+                    deadline,
+                )
             except openai.APITimeoutError:
-                last_problem = f"no answer within {self._timeout_s:g} s"
+                left = _left(deadline)
+                if left is not None and left <= 0.05:
+                    raise _DeadlinePassed from None
+                last_problem = f"no answer within {timeout_s:g} s"
             except openai.APIConnectionError as error:
                 raise StalmError(
                     f"cannot reach {where}: {error.__cause__ or error} (is the server running "
@@ -300,18 +412,25 @@ class OpenAICompatibleBackend:
                 raise StalmError(
                     f"{where} answered with something that is not a chat completion: {error}"
                 ) from error
+            except ValueError as error:  # the body is not JSON (json.JSONDecodeError)
+                raise StalmError(
+                    f"{where} answered with malformed JSON, not a chat completion ({error})"
+                ) from None
             else:
                 return self._replies(completion, request, where, time.perf_counter() - started)
             if attempt + 1 < self._retry.max_attempts:
-                self._sleep(self._retry.delay_s(attempt, retry_after))
+                delay = self._retry.delay_s(attempt, retry_after)
+                left = _left(deadline)
+                if left is not None and delay >= left:
+                    raise _DeadlinePassed  # the backoff would outlast the trial's budget
+                self._sleep(delay)
         raise StalmError(f"{where} failed {self._retry.max_attempts} times; last: {last_problem}")
 
     def _status_error(self, error: openai.APIStatusError, where: str) -> StalmError:
         status = error.status_code
         if status in (401, 403):
-            return StalmError(
-                f"{where} rejected the API key (HTTP {status}); set {API_KEY_ENV} or OPENAI_API_KEY"
-            )
+            names = f"{API_KEY_ENV} or {OPENAI_KEY_ENV}" if self._is_openai else API_KEY_ENV
+            return StalmError(f"{where} rejected the API key (HTTP {status}); set {names}")
         if status == 404:
             return StalmError(
                 f"{where} has no such model or path (HTTP 404: {error.message}); check the "

@@ -1,0 +1,50 @@
+"""Output paths checked before any work starts, and results that outlive a failed write.
+
+A solve can take minutes; learning only afterwards that ``--json`` names a folder would throw
+its result away. :func:`check_output_file` runs before planning; :func:`write_or_fall_back`
+still keeps a result whose write fails later (a full disk, a folder removed meanwhile) by
+writing it to a temporary file it names.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from pathlib import Path
+
+from stalm.errors import StalmError
+
+
+def check_output_file(path: Path, option: str) -> None:
+    """A StalmError naming ``option`` and the path if a file cannot be written at ``path``."""
+    if path.is_dir():
+        raise StalmError(f"{option} {path}: is a folder; name a file to write")
+    ancestor = path.parent
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise StalmError(f"{option} {path}: {ancestor} is a file, not a folder")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise StalmError(f"{option} {path}: cannot write in {ancestor}")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise StalmError(f"{option} {path}: the file is not writable")
+
+
+def write_or_fall_back(text: str, path: Path, stem: str) -> tuple[Path, str | None]:
+    """Write ``text`` to ``path``; if that fails, to a new temporary file.
+
+    Returns the path written and, after a fallback, why ``path`` failed.
+    """
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+        return path, None
+    except OSError as error:
+        why = error.strerror or str(error)
+    handle, name = tempfile.mkstemp(
+        prefix=f"{stem}-{time.strftime('%Y%m%d-%H%M%S')}-", suffix=".json"
+    )
+    with os.fdopen(handle, "w", encoding="utf-8") as fallback:
+        fallback.write(text)
+    return Path(name), why

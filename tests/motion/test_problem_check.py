@@ -1,0 +1,94 @@
+"""The geometric check of problem files: what loads but cannot be planned in (issue 16, item 6)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from stalm.cli.main import main
+from stalm.errors import StalmError
+from stalm.motion.problem_check import check_problem_geometry, problem_geometry_faults
+from stalm.world.problem import Problem, load_problem
+
+
+def _mutated(problems: dict[str, Problem], tmp_path: Path, mutate: object) -> Problem:
+    data = yaml.safe_load(Path(problems["P2"].source).read_text())
+    mutate(data)  # type: ignore[operator]
+    path = tmp_path / "p2-changed.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return load_problem(path)  # loads: every field is fine on its own
+
+
+def _wall(name: str, x: float, y: float, sx: float, sy: float) -> dict[str, object]:
+    return {"name": name, "center": [x, y, 1.1], "size": [sx, sy, 2.2]}
+
+
+def test_the_six_problems_pass(problems: dict[str, Problem]) -> None:
+    for name, problem in problems.items():
+        assert problem_geometry_faults(problem) == [], name
+
+
+def test_a_robot_starting_inside_a_wall(problems, tmp_path) -> None:
+    problem = _mutated(problems, tmp_path, lambda d: d["robot"].update(base=[-1.5, 2.0, 0.0]))
+    faults = problem_geometry_faults(problem)
+    assert any(f.startswith("robot.base") and "wall_divider_north" in f for f in faults)
+
+
+def test_an_object_starting_inside_a_post(problems, tmp_path) -> None:
+    # salter stands on counter2 at u = 0.16 (region yaw pi): x = -4.76, y = -1.45
+    problem = _mutated(
+        problems, tmp_path, lambda d: d["walls"].append(_wall("post", -4.76, -1.45, 0.02, 0.02))
+    )
+    faults = problem_geometry_faults(problem)
+    assert any("objects[0] ('salter')" in f and "'post'" in f for f in faults)
+
+
+def test_a_standing_pose_inside_a_wall(problems, tmp_path) -> None:
+    def move(d: dict) -> None:
+        d["regions"][5]["base_pose"] = [-1.5, 2.0, 0.0]  # table1's pose, inside the divider
+
+    faults = problem_geometry_faults(_mutated(problems, tmp_path, move))
+    assert any(f.startswith("regions[5].base_pose ('table1')") for f in faults)
+
+
+def test_a_standing_pose_the_base_cannot_reach(problems, tmp_path) -> None:
+    def closet(d: dict) -> None:
+        # a closed 1.3 m square room in the hall, table2's standing pose inside it
+        d["walls"] += [
+            _wall("closet_w", 0.3, 3.5, 0.1, 1.5),
+            _wall("closet_e", 1.7, 3.5, 0.1, 1.5),
+            _wall("closet_s", 1.0, 2.8, 1.5, 0.1),
+            _wall("closet_n", 1.0, 4.2, 1.5, 0.1),
+        ]
+        d["regions"][6]["base_pose"] = [1.0, 3.5, 0.0]
+
+    problem = _mutated(problems, tmp_path, closet)
+    with pytest.raises(StalmError) as caught:
+        check_problem_geometry(problem)
+    message = str(caught.value)
+    assert "regions[6].base_pose ('table2'): the base cannot drive there" in message
+    assert problem.source in message
+
+
+def _run_cli(monkeypatch: pytest.MonkeyPatch, *args: str) -> int:
+    monkeypatch.setattr(sys, "argv", ["stalm", *args])
+    try:
+        main()
+    except SystemExit as done:
+        return int(done.code or 0)
+    return 0
+
+
+def test_problems_file_and_solve_run_the_check(problems, tmp_path, monkeypatch, capsys) -> None:
+    problem = _mutated(problems, tmp_path, lambda d: d["robot"].update(base=[-1.5, 2.0, 0.0]))
+    assert _run_cli(monkeypatch, "problems", "--file", problem.source) == 2
+    assert "robot.base" in capsys.readouterr().err
+    assert _run_cli(monkeypatch, "problems", "--file", problem.source, "--no-check") == 0
+    capsys.readouterr()
+    code = _run_cli(monkeypatch, "solve", problem.source, "--planner", "uct", "--time-budget", "5")
+    assert code == 2
+    captured = capsys.readouterr()
+    assert "robot.base" in captured.err and "plan (" not in captured.out

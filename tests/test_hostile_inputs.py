@@ -1,0 +1,277 @@
+"""Property tests: generated problem files, replies, result lines, state files and plan steps
+thrown at the loaders and the parser (issue 16).
+
+Whatever the input, each either gives a valid value or raises one clean
+:class:`~stalm.errors.StalmError`: no other exception escapes, and each call ends in bounded
+time (hypothesis' ``deadline``). Inputs are built from a valid example mutated at random
+(fields replaced by hostile values: NaN, infinity, huge or negative numbers, markup, control
+codes, wrong types, deep nesting) and from raw bytes.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from stalm.errors import StalmError
+from stalm.world.problem import Problem, load_problem
+
+FAST = settings(
+    max_examples=60,
+    deadline=2000,  # ms per example: every loader here is linear and small
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+P2 = load_problem("P2")
+P2_DATA = yaml.safe_load(Path(P2.source).read_text())
+STATE_JSON = P2.initial_state.to_json()
+GENUINE_RESULT = json.loads(
+    (Path(__file__).parent / "planners" / "data" / "p2_result.json").read_text()
+)
+
+HOSTILE_TEXT = st.sampled_from(
+    ["", " ", "[/]", "[bold]x", "\x1b[2J", "\x00", "\u202e", ")(", "a b", "é", "x" * 70, "NaN"]
+)
+HOSTILE_NUMBER = st.one_of(
+    st.sampled_from([math.nan, math.inf, -math.inf, 0, -1, 1e308, -1e-308, 2**70]),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.integers(),
+)
+LEAF = st.one_of(HOSTILE_TEXT, HOSTILE_NUMBER, st.booleans(), st.none())
+HOSTILE_VALUE = st.recursive(
+    LEAF,
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=4), st.dictionaries(HOSTILE_TEXT, inner, max_size=3)
+    ),
+    max_leaves=8,
+)
+
+
+def _paths(value: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+    """Every path to a node of a JSON-like value."""
+    found = [prefix]
+    if isinstance(value, dict):
+        for key, item in value.items():
+            found += _paths(item, (*prefix, key))
+    elif isinstance(value, list):
+        for index, item in enumerate(value):
+            found += _paths(item, (*prefix, index))
+    return found
+
+
+@st.composite
+def mutated(draw: st.DrawFn, original: Any, max_changes: int = 3) -> Any:
+    """``original`` with a few nodes replaced by hostile values (or removed)."""
+    data = copy.deepcopy(original)
+    paths = [p for p in _paths(data) if p]
+    for _ in range(draw(st.integers(1, max_changes))):
+        path = draw(st.sampled_from(paths))
+        parent = data
+        try:
+            for key in path[:-1]:
+                parent = parent[key]
+            if draw(st.booleans()) and isinstance(parent, dict):
+                parent.pop(path[-1], None)
+            else:
+                parent[path[-1]] = draw(HOSTILE_VALUE)
+        except (KeyError, IndexError, TypeError):
+            continue  # an earlier change removed or replaced this path
+    return data
+
+
+def _deep(depth: int) -> str:
+    return "[" * depth + "]" * depth
+
+
+# ---------------------------------------------------------------------------------------------
+# problem files
+
+
+@FAST
+@given(data=mutated(P2_DATA))
+def test_mutated_problem_files(tmp_path_factory: pytest.TempPathFactory, data: Any) -> None:
+    path = tmp_path_factory.mktemp("problem") / "p.yaml"
+    try:
+        path.write_text(yaml.safe_dump(data, allow_unicode=True))
+    except yaml.YAMLError:
+        return
+    _load_problem_or_stalm_error(path)
+
+
+@FAST
+@given(
+    raw=st.one_of(
+        st.binary(max_size=300),
+        st.text(max_size=300),
+        st.sampled_from(
+            [
+                "a: &x [1]\nb: [*x, *x]\n",
+                "a: &a [*a]\n",
+                "".join(
+                    f"l{i}: &l{i} [" + ", ".join([f"*l{i - 1}"] * 9) + "]\n" for i in range(1, 12)
+                ).replace("*l0", "0"),
+                "name: 2001-02-30\n",
+                "!!python/object:os.system {}\n",
+                _deep(5000),
+                "{" * 200,
+                "a: " + "[" * 100 + "]" * 100,
+            ]
+        ),
+    )
+)
+def test_raw_problem_files(tmp_path_factory: pytest.TempPathFactory, raw: bytes | str) -> None:
+    path = tmp_path_factory.mktemp("problem") / "p.yaml"
+    if isinstance(raw, str):
+        path.write_text(raw, encoding="utf-8", errors="surrogatepass")
+    else:
+        path.write_bytes(raw)
+    _load_problem_or_stalm_error(path)
+
+
+def _load_problem_or_stalm_error(path: Path) -> None:
+    try:
+        problem = load_problem(path)
+    except StalmError as error:
+        assert str(error)
+        return
+    # a problem that loads is usable: its initial state, goal and hash exist
+    assert isinstance(problem, Problem)
+    assert problem.initial_state.object_names
+    assert problem.goal and len(problem.content_hash) == 16
+
+
+# ---------------------------------------------------------------------------------------------
+# replies
+
+
+REPLY_PIECES = st.sampled_from(
+    [
+        "plan = [",
+        "[(",
+        "('pick', 'salter')",
+        "('place', 'salter', 'on', 'table2')",
+        "('open', 'kitchen_door')",
+        "# ]",
+        "```",
+        "'",
+        '"',
+        "\\",
+        "\n",
+        ",",
+        ")",
+        "]",
+        "(",
+        "{",
+        '{"plan": [["pick", "salter"]]}',
+        "\x1b[2J",
+        "[/]",
+        " " * 50,
+    ]
+)
+REPLIES = st.one_of(
+    st.text(max_size=400),
+    st.lists(REPLY_PIECES, max_size=200).map("".join),
+    st.tuples(REPLY_PIECES, st.integers(1, 20_000)).map(lambda pair: pair[0] * pair[1]),
+)
+
+
+@FAST
+@given(text=REPLIES)
+def test_replies_parse_to_a_plan_or_a_reason(text: str) -> None:
+    from stalm.domain.vocabulary import Vocabulary
+    from stalm.llm.constraints import json_reply_to_plan_text
+    from stalm.llm.reply_parser import parse_reply
+
+    vocabulary = Vocabulary.from_problem(P2)
+    parsed = parse_reply(text, vocabulary)
+    assert parsed.plan or parsed.reason
+    json.dumps(parsed.to_json())
+    try:
+        converted = json_reply_to_plan_text(text)
+    except StalmError:
+        return
+    assert isinstance(converted, str)
+    parse_reply(converted, vocabulary)
+
+
+# ---------------------------------------------------------------------------------------------
+# result lines
+
+
+RECORD = {
+    "key": "abc",
+    "arm": "stalm",
+    "problem": "P2",
+    "trial": 0,
+    "termination": "goal",
+    "success": True,
+    "time_s": 12.5,
+    "time_budget_s": 30.0,
+    "llm_plan_failures": {"unparseable": 2},
+}
+LINES = st.one_of(
+    mutated(RECORD).map(lambda r: json.dumps(r).encode()),
+    st.just(json.dumps(RECORD).encode()),
+    st.binary(max_size=80),
+    st.sampled_from([b"\xff\xfe", b"NaN", b"[]", b"{}", _deep(3000).encode(), b'{"key": 1}']),
+)
+
+
+@FAST
+@given(lines=st.lists(LINES, max_size=12), newline_at_end=st.booleans())
+def test_result_logs_load_and_report(
+    tmp_path_factory: pytest.TempPathFactory, lines: list[bytes], newline_at_end: bool
+) -> None:
+    from stalm.experiments.report import build_table, csv_table, failure_shares, markdown_table
+    from stalm.experiments.results_log import ResultsLog, read_records
+
+    path = tmp_path_factory.mktemp("results") / "r.jsonl"
+    path.write_bytes(b"\n".join(lines) + (b"\n" if newline_at_end else b""))
+    loaded = read_records(path)
+    table = build_table(loaded.records)
+    markdown_table(table, paper=True)
+    csv_table(table)
+    failure_shares(loaded.records)
+    log = ResultsLog(path)  # resuming: whole records kept, a partial tail set aside
+    assert log.load().records == loaded.records
+    assert path.read_bytes().endswith(b"\n") or not path.read_bytes()
+
+
+# ---------------------------------------------------------------------------------------------
+# state files and plan steps
+
+
+@FAST
+@given(data=st.one_of(mutated(STATE_JSON), HOSTILE_VALUE))
+def test_state_files(tmp_path_factory: pytest.TempPathFactory, data: Any) -> None:
+    from stalm.cli.world_commands import read_state_file
+
+    path = tmp_path_factory.mktemp("state") / "s.json"
+    path.write_text(json.dumps(data))
+    try:
+        state = read_state_file(path, P2)
+    except StalmError:
+        return
+    assert set(state.object_names) == {o.name for o in P2.spec.objects}
+    assert all(math.isfinite(v) for _, pose in state.poses for v in (pose.x, pose.y, pose.z))
+
+
+@FAST
+@given(step=mutated(GENUINE_RESULT["plan"][1]))
+def test_plan_steps(step: Any) -> None:
+    from stalm.domain.serialize import action_from_json
+
+    try:
+        action = action_from_json(step)
+    except StalmError:
+        return
+    params = action.params
+    assert all(math.isfinite(v) for corner in params.base_path.corners for v in corner)
+    assert all(math.isfinite(v) for conf in params.arm_waypoints for v in conf)
