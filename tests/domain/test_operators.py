@@ -113,15 +113,7 @@ def test_rewards_goal_and_a_full_p2_plan(domain_factory) -> None:
         Pick("salter"),
         Place("salter", "right_of", "bottle1"),
     ]
-    rewards = []
-    for action in plan:
-        for _ in range(5):
-            _, outcome = domain.sample_and_step(state, action, rng)
-            if outcome.feasible:
-                break
-        assert outcome.feasible, (action, outcome.failure)
-        rewards.append(outcome.reward)
-        state = outcome.state
+    rewards, state = _rewards_along(domain, state, plan, rng, tries=5)
     assert domain.is_goal(state)
     # the last PLACE makes both goal atoms true (+3 each) and reaches the goal (+100)
     assert rewards[-1] == 3.0 * 2 + 100.0
@@ -152,14 +144,21 @@ def test_picking_a_goal_object_off_its_goal_and_placing_it_back_nets_zero(domain
     rng = np.random.default_rng(3)
     state = domain.problem.initial_state
     assert at_position(domain.problem.spec, state, "beef_grill", "on", "counter2")
+    plan = [Open("kitchen_door"), Pick("beef_grill"), Place("beef_grill", "on", "counter2")]
+    rewards, _ = _rewards_along(domain, state, plan, rng, tries=10)
+    assert rewards == [0.0, -3.0, 3.0]
+    assert sum(rewards) == 0.0
+
+
+def _rewards_along(domain, state, plan, rng, tries: int):
+    """Each action's reward along ``plan`` (up to ``tries`` κ draws a step), and the end state."""
     rewards = []
-    for action in (Open("kitchen_door"), Pick("beef_grill"), Place("beef_grill", "on", "counter2")):
-        for _ in range(10):
+    for action in plan:
+        for _ in range(tries):
             _, outcome = domain.sample_and_step(state, action, rng)
             if outcome.feasible:
                 break
         assert outcome.feasible, (action, outcome.failure)
         rewards.append(outcome.reward)
         state = outcome.state
-    assert rewards == [0.0, -3.0, 3.0]
-    assert sum(rewards) == 0.0
+    return rewards, state
