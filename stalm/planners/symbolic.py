@@ -154,6 +154,9 @@ class SymbolicProposer:
                 return self.time_limit_s
             return max(0.5, min(self.time_limit_s, deadline - time.monotonic()))
 
+        def out_of_time() -> bool:
+            return deadline is not None and time.monotonic() >= deadline
+
         start = time.perf_counter()
         plans: list[tuple[DiscreteAction, ...]] = []
         reasons: list[str] = []
@@ -163,19 +166,26 @@ class SymbolicProposer:
             (work / "problem.pddl").write_text(
                 problem_pddl(vocabulary, sorted(literals), goal_literals(problem), "state")
             )
-            translate_task(work, limit())
-            for index in range(n):
-                if deadline is not None and time.monotonic() >= deadline:
-                    break
-                # Fast Downward takes a signed 32-bit seed
-                fd_seed = (seed + index) % 2**31
-                run = search_task(work, SEARCH.format(seed=fd_seed), limit())
-                if run.plan is None:
-                    reasons.append(_why(run.output))
-                    continue
-                plan = _read_plan(run.plan, vocabulary)
-                if plan not in plans:
-                    plans.append(plan)
+            # Out of time, the proposal holds what was found so far (the caller then stops
+            # with 'timeout'): not an error, which a re-run of an experiment would retry.
+            try:
+                if not out_of_time():
+                    translate_task(work, limit())
+                for index in range(n):
+                    if out_of_time():
+                        break
+                    # Fast Downward takes a signed 32-bit seed
+                    fd_seed = (seed + index) % 2**31
+                    run = search_task(work, SEARCH.format(seed=fd_seed), limit())
+                    if run.plan is None:
+                        reasons.append(_why(run.output))
+                        continue
+                    plan = _read_plan(run.plan, vocabulary)
+                    if plan not in plans:
+                        plans.append(plan)
+            except subprocess.TimeoutExpired:
+                if not out_of_time():
+                    raise  # its own limit, not the trial's deadline, ran out
         return Proposal(
             plans=tuple(plans),
             unparseable=tuple(reasons[:1]) if not plans else (),
