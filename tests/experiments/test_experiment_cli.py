@@ -77,6 +77,34 @@ def test_smoke_experiment_and_its_report(monkeypatch, tmp_path: Path, capsys) ->
     assert (out_dir / "smoke-success.png").exists()
 
 
+class PlannerDoubleThatRaises:
+    """A planner whose every trial hits a bug (tests only)."""
+
+    name = "uct"
+
+    def solve(self, problem: object, seed: int, time_budget_s: float | None = None) -> None:
+        raise RuntimeError("test double: a bug in the planner")
+
+
+def test_a_trial_that_raises_is_kept_as_an_error_and_the_run_exits_1(
+    monkeypatch, tmp_path: Path, capsys
+) -> None:
+    from stalm.experiments import trials
+
+    monkeypatch.setattr(trials, "build_planner", lambda name, config: PlannerDoubleThatRaises())
+    results = tmp_path / "errors.jsonl"
+    args = ["experiment", "table2", "--problems", "P2", "--planners", "uct", "--trials", "1"]
+    assert run_cli(monkeypatch, *args, "--time-budget", "1", "--results", str(results)) == 1
+    [record] = read_records(results).records
+    assert record["termination"] == "error" and record["success"] is False
+    assert record["error"] == "RuntimeError: test double: a bug in the planner"
+    assert "RuntimeError" in record["traceback"]
+    err = " ".join(capsys.readouterr().err.split())
+    assert "ran 1 trials (0 solved, 1 errors)" in err
+    assert "1 trials ended in an error (a re-run retries them)" in err
+    assert "the first: uct P2: RuntimeError: test double: a bug in the planner" in err
+
+
 def test_report_of_a_missing_file_is_a_clear_error(monkeypatch, tmp_path: Path, capsys) -> None:
     assert run_cli(monkeypatch, "report", str(tmp_path / "none.jsonl")) == 2
     assert "no results file" in capsys.readouterr().err
