@@ -3,21 +3,45 @@
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis.configuration import set_hypothesis_home_dir
 
 from stalm.domain.mdp import Domain
 from stalm.world.problem import Problem, load_problem
 
 PROBLEM_NAMES = ("P1", "P2", "P3", "P4", "P5", "P6")
+_HYPOTHESIS_HOME = pytest.StashKey[str]()
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Hypothesis's folder (example database, caches; by default ./.hypothesis, which every
+    pytest-xdist worker would write to) goes to a temporary folder of this process. It is set
+    here because Hypothesis's plugin already writes to it while tests are collected."""
+    folder = tempfile.mkdtemp(prefix="stalm-tests-hypothesis-")
+    config.stash[_HYPOTHESIS_HOME] = folder
+    set_hypothesis_home_dir(folder)
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    folder = config.stash.get(_HYPOTHESIS_HOME, None)
+    if folder is not None:
+        set_hypothesis_home_dir(None)
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 @pytest.fixture(scope="session", autouse=True)
 def _private_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    """Roadmaps and replies are cached under a per-session directory, never the user's."""
+    """Roadmaps and replies are cached under a per-session directory, never the user's.
+
+    Under pytest-xdist each worker is a session with its own base temporary directory, so
+    workers share no cache files (a roadmap built by one is built again by the other).
+    """
     path = tmp_path_factory.mktemp("stalm-cache")
     old = os.environ.get("STALM_CACHE_DIR")
     os.environ["STALM_CACHE_DIR"] = str(path)
@@ -54,17 +78,32 @@ def rng() -> np.random.Generator:
 
 
 @pytest.fixture(scope="session")
-def initial_literals(domain_factory) -> Iterator[object]:
-    """Predicates of each problem's initial state, computed once per session."""
-    from stalm.predicates.engine import PredicateEngine
+def initial_predicates(domain_factory) -> Iterator[object]:
+    """The predicate cache of each problem's initial state, computed once per session.
 
-    computed: dict[str, frozenset[object]] = {}
+    A full computation costs 8-15 s of CPU, so the tests that need an initial state's
+    predicates share this one (under pytest-xdist, once per worker). The cache is read only:
+    ``PredicateEngine.update`` returns a new cache and leaves its argument as it was.
+    """
+    from stalm.predicates.engine import PredicateCache, PredicateEngine
 
-    def get(name: str) -> frozenset[object]:
+    computed: dict[str, PredicateCache] = {}
+
+    def get(name: str) -> PredicateCache:
         if name not in computed:
             domain = domain_factory(name)
             engine = PredicateEngine(domain.problem, domain.sim, domain.base_planner)
-            computed[name] = engine.compute(domain.problem.initial_state).literals
+            computed[name] = engine.compute(domain.problem.initial_state)
         return computed[name]
+
+    yield get
+
+
+@pytest.fixture(scope="session")
+def initial_literals(initial_predicates) -> Iterator[object]:
+    """Predicates of each problem's initial state, computed once per session."""
+
+    def get(name: str) -> frozenset[object]:
+        return initial_predicates(name).literals
 
     yield get

@@ -213,6 +213,8 @@ class SymbolicProposer:
         reasons of the runs that gave none."""
         plans: list[tuple[DiscreteAction, ...]] = []
         reasons: list[str] = []
+        if _past(deadline):  # the caller stops with 'timeout'; no Fast Downward past it
+            return plans, reasons
         with tempfile.TemporaryDirectory(prefix="stalm-fd-") as folder:
             work = Path(folder)
             (work / "domain.pddl").write_text(
@@ -231,7 +233,9 @@ class SymbolicProposer:
             try:
                 translate_task(work, limit())
             except subprocess.TimeoutExpired:
-                return plans, ["Fast Downward's translator did not finish in its time limit"]
+                # cut by the trial's deadline: nothing to report (the caller times out)
+                why = [] if _past(deadline) else ["Fast Downward's translator hit its time limit"]
+                return plans, why
             except DownwardGaveUp as error:
                 return plans, [str(error)]
             for index in range(n):
@@ -242,7 +246,8 @@ class SymbolicProposer:
                 try:
                     run = search_task(work, SEARCH.format(seed=fd_seed), limit())
                 except subprocess.TimeoutExpired:
-                    reasons.append("Fast Downward found no plan in its time limit")
+                    if not _past(deadline):
+                        reasons.append("Fast Downward found no plan in its time limit")
                     continue
                 if run.plan is None:
                     reasons.append(_why(run.output))

@@ -23,7 +23,9 @@ from stalm.experiments.results_log import ResultsLog, read_records
 from stalm.experiments.runner import run_experiment
 from stalm.experiments.suites import build_plan, trial_specs
 
-SMOKE = ["--problems", "P1,P2", "--planners", "uct,stalm-symbolic", "--trials", "2"]
+# One trial per cell: several trials of one cell are the killed-run and Ray tests' (and the
+# report's aggregation is test_report.py's); each STaLM trial computes predicates for 8-13 s.
+SMOKE = ["--problems", "P1,P2", "--planners", "uct,stalm-symbolic", "--trials", "1"]
 
 
 def run_cli(monkeypatch: pytest.MonkeyPatch, *args: str) -> int:
@@ -52,7 +54,7 @@ def test_smoke_experiment_and_its_report(monkeypatch, tmp_path: Path, capsys) ->
     args = ["experiment", "table2", *SMOKE, "--time-budget", "3", "--results", str(results)]
     assert run_cli(monkeypatch, *args, "--workers", "2") == 0
     records = read_records(results).records
-    _check_records(records, 8)
+    _check_records(records, 4)
     assert {(r["arm"], r["problem"]) for r in records} == {
         (arm, problem) for arm in ("uct", "stalm-symbolic") for problem in ("P1", "P2")
     }
@@ -60,7 +62,7 @@ def test_smoke_experiment_and_its_report(monkeypatch, tmp_path: Path, capsys) ->
     capsys.readouterr()
     assert run_cli(monkeypatch, *args) == 0
     assert "ran 0 trials" in capsys.readouterr().err
-    assert len(read_records(results).records) == 8
+    assert len(read_records(results).records) == 4
 
     out_dir = tmp_path / "report"
     assert run_cli(monkeypatch, "report", str(results), "--out", str(out_dir), "--paper") == 0
@@ -69,12 +71,40 @@ def test_smoke_experiment_and_its_report(monkeypatch, tmp_path: Path, capsys) ->
     assert "| stalm-symbolic | Success rate |" in markdown
     rows = list(csv.DictReader((out_dir / "smoke.csv").open()))
     assert sorted((r["planner"], r["problem"], r["trials"]) for r in rows) == [
-        ("stalm-symbolic", "P1", "2"),
-        ("stalm-symbolic", "P2", "2"),
-        ("uct", "P1", "2"),
-        ("uct", "P2", "2"),
+        ("stalm-symbolic", "P1", "1"),
+        ("stalm-symbolic", "P2", "1"),
+        ("uct", "P1", "1"),
+        ("uct", "P2", "1"),
     ]
     assert (out_dir / "smoke-success.png").exists()
+
+
+class PlannerDoubleThatRaises:
+    """A planner whose every trial hits a bug (tests only)."""
+
+    name = "uct"
+
+    def solve(self, problem: object, seed: int, time_budget_s: float | None = None) -> None:
+        raise RuntimeError("test double: a bug in the planner")
+
+
+def test_a_trial_that_raises_is_kept_as_an_error_and_the_run_exits_1(
+    monkeypatch, tmp_path: Path, capsys
+) -> None:
+    from stalm.experiments import trials
+
+    monkeypatch.setattr(trials, "build_planner", lambda name, config: PlannerDoubleThatRaises())
+    results = tmp_path / "errors.jsonl"
+    args = ["experiment", "table2", "--problems", "P2", "--planners", "uct", "--trials", "1"]
+    assert run_cli(monkeypatch, *args, "--time-budget", "1", "--results", str(results)) == 1
+    [record] = read_records(results).records
+    assert record["termination"] == "error" and record["success"] is False
+    assert record["error"] == "RuntimeError: test double: a bug in the planner"
+    assert "RuntimeError" in record["traceback"]
+    err = " ".join(capsys.readouterr().err.split())
+    assert "ran 1 trials (0 solved, 1 errors)" in err
+    assert "1 trials ended in an error (a re-run retries them)" in err
+    assert "the first: uct P2: RuntimeError: test double: a bug in the planner" in err
 
 
 def test_report_of_a_missing_file_is_a_clear_error(monkeypatch, tmp_path: Path, capsys) -> None:

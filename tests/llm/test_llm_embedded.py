@@ -10,7 +10,7 @@ import pytest
 
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.llm.backends import EmbeddedBackend, LLMRequest, OutputConstraint
+from stalm.llm.backends import EmbeddedBackend, LLMRequest, OutputConstraint, embedded
 from stalm.llm.backends.embedded import locate_embedded_model
 from stalm.llm.constraints import ConstraintLimits, build_constraint, build_gbnf
 from stalm.llm.reply_parser import parse_reply
@@ -144,21 +144,26 @@ def test_a_deadline_stops_sampling_and_cut_replies_are_not_cached(
     assert len(cache) == 3
 
 
-@pytest.mark.slow
-def test_whole_chunks_shared_with_the_last_prompt_are_reused_and_replies_do_not_change() -> None:
-    # about 1,400 prompt tokens, the first 1,024 or more shared: two whole 512-token chunks
-    shared = "\n".join(f"('AtPosition', 'can{i}', 'on', 'counter{i % 7}')" for i in range(90))
+def test_whole_chunks_shared_with_the_last_prompt_are_reused_and_replies_do_not_change(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The mechanism at an eighth of the real chunk size (512): a 215-token prompt whose first
+    # 207 tokens are shared with the last one keeps three whole 64-token chunks, where 512-token
+    # chunks need prompts of 1,400 tokens that take half a minute to evaluate three times.
+    chunk = 64
+    monkeypatch.setattr(embedded, "_EVAL_CHUNK", chunk)
+    shared = "\n".join(f"('AtPosition', 'can{i}', 'on', 'counter{i % 7}')" for i in range(12))
     first = LLMRequest(system="Answer briefly.", user=shared + "\nName a fruit.", max_tokens=8)
     second = LLMRequest(
         system="Answer briefly.", user=shared + "\nName a colour.", n=2, max_tokens=12, seed=7
     )
-    warm = EmbeddedBackend(n_ctx=2048)
+    warm = EmbeddedBackend(n_ctx=512)
     warm.complete(first)
     assert warm.prompt_tokens_reused == 0
     reused = warm.complete(second)
     kept = warm.prompt_tokens_reused
-    assert kept >= 1024 and kept % 512 == 0
-    fresh = EmbeddedBackend(n_ctx=2048).complete(second)
+    assert kept >= 2 * chunk and kept % chunk == 0
+    fresh = EmbeddedBackend(n_ctx=512).complete(second)
     assert reused.texts == fresh.texts
     # a prompt sharing less than one whole chunk is evaluated from the start
     warm.complete(LLMRequest(system="Other.", user="Name a tree.", max_tokens=4))

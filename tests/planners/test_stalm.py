@@ -11,6 +11,7 @@ from stalm.domain.mdp import Domain
 from stalm.planners.replay import replay_plan, replay_result_json
 from stalm.planners.stalm import StalmPlanner, StalmSettings
 from stalm.search import SearchSettings, SearchTree, TaskPlan, concretize, warm_started_uct
+from stalm.world.problem import Problem
 from tests.planners.doubles import ScriptedSuffixProposer
 
 P2_PLAN = (
@@ -33,6 +34,10 @@ P6_PLAN = (
     Pick("beef_grill"),
     Place("beef_grill", "on", "counter2"),
 )
+
+
+def _with_horizon(problem: Problem, horizon: int) -> Problem:
+    return Problem(problem.spec.model_copy(update={"horizon": horizon}), problem.source)
 
 
 def _solve(problem, plan, seed: int, budget: float = 240.0):
@@ -88,14 +93,22 @@ def test_a_plan_failing_at_step_k_warms_the_tree_and_search_still_solves(problem
             assert step.outcome.state in tree, "the warm tree holds the first k steps"
     finally:
         domain.close()
-    result = _solve(problem, wrong, seed=0)
+    # Of seeds 0-5, seed 4 solves with the least work: 141 simulations in five replanning
+    # steps, about 35 s of CPU (seed 0: 57 s). Every step is seeded, so the wall budget only
+    # has to stay far above that, also on a machine busy with other work.
+    result = _solve(problem, wrong, seed=4, budget=600.0)
     assert result.success
     assert replay_plan(problem, problem.initial_state, list(result.plan)).reached_goal
 
 
 def test_same_seed_and_proposer_give_the_identical_plan(problems) -> None:
-    first = _solve(problems["P2"], P2_PLAN[1:], seed=4)
-    second = _solve(problems["P2"], P2_PLAN[1:], seed=4)
+    # Two steps of the online loop are enough to repeat every seeded part: predicates, the
+    # proposer, a failed Concretize (the plan lacks the OPEN) and 30 warm-started simulations
+    # per step. A horizon of 2 ends the trial there instead of running to the goal.
+    short = _with_horizon(problems["P2"], 2)
+    first = _solve(short, P2_PLAN[1:], seed=4)
+    second = _solve(short, P2_PLAN[1:], seed=4)
+    assert len(first.plan) == 2 and first.counters.simulations > 0
     assert first.to_json()["plan"] == second.to_json()["plan"]
     assert first.success == second.success
 

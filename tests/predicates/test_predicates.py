@@ -23,9 +23,8 @@ def _moved(state: State, **poses: ObjectPose) -> State:
     return state.with_changes(poses=poses)
 
 
-def test_initial_p2_literals(p2) -> None:
-    domain, engine = p2
-    literals = engine.compute(domain.problem.initial_state).literals
+def test_initial_p2_literals(initial_literals) -> None:
+    literals = initial_literals("P2")
     assert L("HandAvailable") in literals
     assert L("IsClosed", ("kitchen_door",)) in literals
     assert L("AtPosition", ("salter", "on", "counter2")) in literals
@@ -110,18 +109,19 @@ def _random_walk_equality(domain: Domain, steps: int, seed: int) -> int:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("name", "seed"), [("P2", 0), ("P5", 1)])
-def test_cached_updates_equal_from_scratch_on_random_action_sequences(
-    domain_factory, name, seed
-) -> None:
-    assert _random_walk_equality(domain_factory(name), steps=5, seed=seed) >= 2
+def test_cached_updates_equal_from_scratch_on_a_random_action_sequence(domain_factory) -> None:
+    """The longer check: five random feasible steps in P5 (the grill, five objects). The
+    default run's short one on P2 is the OPEN, PICK, PLACE test below; a from-scratch
+    computation costs 8-15 s, so one random walk is checked, not one per problem."""
+    assert _random_walk_equality(domain_factory("P5"), steps=5, seed=1) >= 2
 
 
-def test_cached_update_after_pick_place_open_equals_from_scratch(p2) -> None:
+def test_cached_update_after_pick_place_open_equals_from_scratch(p2, initial_predicates) -> None:
     domain, engine = p2
     rng = np.random.default_rng(3)
     state = domain.problem.initial_state
-    cache = engine.compute(state)
+    cache = initial_predicates("P2")
+    assert cache.state == state
     for action in (Open("kitchen_door"), Pick("bottle1"), Place("bottle1", "on", "table1")):
         for _ in range(4):
             _, outcome = domain.sample_and_step(state, action, rng)
