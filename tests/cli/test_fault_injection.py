@@ -36,7 +36,7 @@ pytestmark = pytest.mark.slow
 BUDGET_S = 8.0
 TRIAL_MARGIN_S = 4.0
 """How long past its budget a trial may end (the result's own total time)."""
-EXIT_MARGIN_S = 5.0
+EXIT_MARGIN_S = 10.0
 """How long a process may live on after writing its result (nothing keeps it waiting on the
 server: an abandoned request must not hold the exit)."""
 STARTUP_MARGIN_S = 60.0

@@ -274,7 +274,7 @@ def _smallest_case(tmp_path: Path):
     two actions; horizon 4 keeps rollouts short. Every root action but one is a distraction:
     picking salter, bottle2 or bottle3, or opening the door."""
     data = yaml.safe_load(Path(load_problem("P2").source).read_text(encoding="utf-8"))
-    data.update(name="P2-bottle1", horizon=4, goal=[["bottle1", "on", "table1"]])
+    data.update(name="P2_bottle1", horizon=4, goal=[["bottle1", "on", "table1"]])
     data.pop("optimal_length", None)
     path = tmp_path / "p2-bottle1.yaml"
     path.write_text(yaml.safe_dump(data), encoding="utf-8")
