@@ -24,7 +24,7 @@ import numpy as np
 import pybullet as p
 
 from stalm.world import robot as robot_model
-from stalm.world.scene import Sim
+from stalm.world.scene import PENETRATION_TOLERANCE, Sim
 from stalm.world.spec import ProblemSpec
 
 ROADMAP_FORMAT = 2
@@ -128,7 +128,14 @@ def cache_dir() -> Path:
 
 
 class FootprintChecker:
-    """Collision checks of the footprint proxy against the static scene (and doors)."""
+    """Collision checks of the footprint proxy against the static scene (and doors).
+
+    Each query tests the proxy against the static bodies only, pair by pair, instead of a
+    whole-world collision detection: the movable objects are ignored anyway, and wherever
+    they happen to sit while a roadmap is built (all at one spot right after the scene is
+    made) a whole-world query paid for every contact among them, 10 times the proxy's own
+    cost on P3's twelve cans.
+    """
 
     def __init__(self, sim: Sim, settings: RoadmapSettings) -> None:
         self.sim = sim
@@ -141,13 +148,22 @@ class FootprintChecker:
             physicsClientId=c,
         )
         self.body = int(p.createMultiBody(1.0, col, -1, [0, 0, -50.0], physicsClientId=c))
-        self._ignore = [sim.bodies.base, sim.bodies.arm, *sim.bodies.objects.values()]
+        bodies = sim.bodies
+        self._static = [
+            body
+            for group in (bodies.walls, bodies.regions, bodies.doors)
+            for body in group.values()
+        ] + ([bodies.floor] if bodies.floor >= 0 else [])
 
     def free(self, x: float, y: float) -> bool:
-        p.resetBasePositionAndOrientation(
-            self.body, [x, y, 0.0], [0, 0, 0, 1], physicsClientId=self.sim.client
-        )
-        return not self.sim.contacts_of([self.body], self._ignore)
+        c = self.sim.client
+        p.resetBasePositionAndOrientation(self.body, [x, y, 0.0], [0, 0, 0, 1], physicsClientId=c)
+        self.sim.collision_checks += 1
+        for other in self._static:
+            points = p.getClosestPoints(self.body, other, 0.0, physicsClientId=c)
+            if any(point[8] < -PENETRATION_TOLERANCE for point in points):
+                return False
+        return True
 
     def segment_free(self, a: Sequence[float], b: Sequence[float], resolution: float) -> bool:
         length = math.dist(a, b)

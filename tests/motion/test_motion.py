@@ -4,12 +4,18 @@ import itertools
 import math
 
 import numpy as np
+import pybullet as p
 
 from stalm.geometry.transforms import gripper_rotation, quat_from_matrix
 from stalm.motion.arm_motion import MAX_JOINT_STEP, MAX_LIFT_STEP, interpolate
 from stalm.motion.base_motion import BasePath, densify
 from stalm.motion.ik import solve_ik
-from stalm.motion.roadmap import RoadmapSettings, load_or_build_roadmap, static_scene_key
+from stalm.motion.roadmap import (
+    FootprintChecker,
+    RoadmapSettings,
+    load_or_build_roadmap,
+    static_scene_key,
+)
 from stalm.world.problem import Problem
 
 
@@ -40,6 +46,40 @@ def test_roadmap_is_cached_on_disk_by_scene_content(
     assert static_scene_key(problems["P5"].spec, frozenset(), settings) != static_scene_key(
         problems["P2"].spec, frozenset(), settings
     )
+
+
+def test_the_footprint_proxy_meets_walls_and_closed_doors_but_not_movable_objects(
+    domain_factory,
+) -> None:
+    domain = domain_factory("P3")
+    sim, spec = domain.sim, domain.problem.spec
+    sim.set_state(domain.problem.initial_state)
+    checker = FootprintChecker(sim, RoadmapSettings())
+    start = spec.robot.base[:2]
+    door = spec.doors[0]
+    doorway = (
+        door.hinge[0] + door.width / 2 * math.cos(door.closed_yaw),
+        door.hinge[1] + door.width / 2 * math.sin(door.closed_yaw),
+    )
+    try:
+        assert checker.free(*start)
+        wall = spec.walls[0]
+        assert not checker.free(wall.center[0], wall.center[1])
+        # a movable object where the proxy stands changes nothing: the base plans around
+        # the static scene, objects are the predicates' business
+        can = next(iter(sim.bodies.objects.values()))
+        p.resetBasePositionAndOrientation(
+            can, [start[0], start[1], 0.5], [0, 0, 0, 1], physicsClientId=sim.client
+        )
+        assert checker.free(*start)
+        sim.set_door(door.name, False)
+        closed = checker.free(*doorway)
+        sim.set_door(door.name, True)
+        opened = checker.free(*doorway)
+        assert (closed, opened) == (False, True)
+    finally:
+        checker.remove()
+        sim.set_state(domain.problem.initial_state)
 
 
 def test_densified_paths_respect_the_resolution() -> None:
