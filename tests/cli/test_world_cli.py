@@ -93,6 +93,7 @@ def test_predicates_prompt_and_parse_reply_commands(
     assert parsed["errors"] and "counter9" in json.dumps(parsed["errors"])
 
 
+@pytest.mark.slow
 def test_the_readmes_first_solve_solves_offline_with_no_model_named(
     monkeypatch, capsys, tmp_path: Path, problems
 ) -> None:
