@@ -69,7 +69,7 @@ def bench_world(
             )
             rows.append(row)
 
-        run(names, attempts, seed, report)
+        run(names, attempts, seed, report, progress=lambda m: status.update(shown(m)))
     console.print(table)
     if json_out is not None:
         json_out.write_text(json.dumps(rows, indent=2))

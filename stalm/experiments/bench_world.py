@@ -37,13 +37,18 @@ class OperatorTimes:
         }
 
 
-def bench_problem(name: str, attempts: int = 60, seed: int = 0) -> dict[str, object]:
-    """Time ``attempts`` attempts of each operator on problem ``name``."""
+def bench_problem(
+    name: str, attempts: int = 60, seed: int = 0, progress: Callable[[str], None] | None = None
+) -> dict[str, object]:
+    """Time ``attempts`` attempts of each operator on problem ``name``; ``progress`` hears
+    what is happening (the roadmaps come first and are not timed)."""
+    say = progress or (lambda _message: None)
     problem = load_problem(name)
     domain = Domain.create(problem, sampler_settings=ONE_TRY)
     rng = np.random.default_rng(seed)
     domain.legal_actions(problem.initial_state)
     # warm the roadmaps (built once per scene, then cached on disk) outside the timings
+    say(f"{name}: base roadmaps (built once per scene and door setting, then read from disk)")
     for doors in (frozenset(), frozenset(d.name for d in problem.spec.doors)):
         domain.base_planner.roadmap(doors)
     times = {"pick": OperatorTimes(), "place": OperatorTimes(), "open": OperatorTimes()}
@@ -60,6 +65,8 @@ def bench_problem(name: str, attempts: int = 60, seed: int = 0) -> dict[str, obj
         kind = action.operator
         if kind == "open" and len(times["open"].seconds) >= attempts:
             continue
+        done = sum(len(t.seconds) for t in times.values())
+        say(f"{name}: operator attempts, {done} timed")
         start = time.perf_counter()
         _drawn, outcome = domain.sample_and_step(state, action, rng)
         times[kind].seconds.append(time.perf_counter() - start)
@@ -69,6 +76,7 @@ def bench_problem(name: str, attempts: int = 60, seed: int = 0) -> dict[str, obj
                 state = outcome.state
     elapsed = time.perf_counter() - wall_start
     checks = domain.sim.collision_checks - checks_before
+    say(f"{name}: raw collision checks")
     raw = _raw_checks_per_second(domain)
     domain.close()
     return {
@@ -91,11 +99,15 @@ def _raw_checks_per_second(domain: Domain, n: int = 2000) -> float:
 
 
 def run(
-    names: list[str], attempts: int, seed: int, report: Callable[[dict[str, object]], None]
+    names: list[str],
+    attempts: int,
+    seed: int,
+    report: Callable[[dict[str, object]], None],
+    progress: Callable[[str], None] | None = None,
 ) -> list[dict[str, object]]:
     rows = []
     for name in names:
-        row = bench_problem(name, attempts, seed)
+        row = bench_problem(name, attempts, seed, progress)
         report(row)
         rows.append(row)
     return rows
