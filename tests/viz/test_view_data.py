@@ -119,3 +119,20 @@ def test_solve_writes_the_page_with_html(monkeypatch, capsys, tmp_path) -> None:
     assert code in (0, 1)  # three seconds rarely solve P2; the page is written either way
     assert page.stat().st_size > 3e6
     assert '"step_log":[{' in page.read_text()  # uct records its steps (with no proposals)
+
+
+def test_a_plan_that_fails_its_replay_is_animated_up_to_the_failing_action(problems) -> None:
+    forged = copy.deepcopy(STEPS_RESULT)
+    forged["plan"][-1]["placement"][0] += 1.0  # the salter put down a metre from the hand
+    data = view_data(problems["P2"], forged)
+    last = len(forged["plan"])
+    assert data["replay"]["failed_step"] == last - 1 and not data["replay"]["reached_goal"]
+    assert any(f"fails at action {last}" in note for note in data["notes"])
+    assert data["frames"]["action"][-1] == last - 2
+
+
+def test_solve_refuses_an_html_path_it_cannot_write_before_planning(
+    monkeypatch, capsys, tmp_path
+) -> None:
+    assert run_cli(monkeypatch, "solve", "P2", "--html", str(tmp_path)) == 2
+    assert "--html" in capsys.readouterr().err
