@@ -86,6 +86,28 @@ def check_solve_numbers(seed: int, time_budget: float | None, sims: int | None, 
         raise StalmError(f"--batch (N_batch) must be at least 1, got {batch}")
 
 
+SYMBOLIC_DEFAULT_NOTE = (
+    "no language model named: task plans come from Fast Downward (--proposer symbolic). "
+    "--llm embedded runs the bundled SmolLM2-135M; --llm openai:MODEL or "
+    "--llm http://HOST:PORT/v1#MODEL a served model."
+)
+
+
+def default_proposer(planner: str, llm: str | None) -> str:
+    """``symbolic`` for STaLM when no model is named (said on stderr), else ``llm``.
+
+    A newcomer's first solve should solve: offline, the only model is the bundled 135M one,
+    whose plans rarely ground, while the symbolic proposer solves P1-P6. Planners that have
+    no symbolic proposer (EP-SayCan, LLM-MCTS, ...) keep the model.
+    """
+    from stalm.llm.backends import model_configured
+
+    if planner in ("stalm", "stalm-no-uct") and not model_configured(llm):
+        console.print(f"[yellow]note:[/] {SYMBOLIC_DEFAULT_NOTE}", highlight=False)
+        return "symbolic"
+    return "llm"
+
+
 @app.command("solve")
 def solve_command(
     problem: Annotated[str, typer.Argument(help="Problem name (P5) or path to a problem file.")],
@@ -101,13 +123,14 @@ def solve_command(
         float | None, typer.Option("--time-budget", help="Seconds (default: the problem's).")
     ] = None,
     proposer_name: Annotated[
-        str,
+        str | None,
         typer.Option(
             "--proposer",
-            help="Where task plans come from: llm (default) or symbolic (Fast Downward on the "
-            "predicates, no model).",
+            help="Where task plans come from: llm (a language model) or symbolic (Fast "
+            "Downward on the predicates, no model). Default: llm when a model is named "
+            "(--llm, $STALM_LLM, $STALM_LLM_BASE_URL), else symbolic.",
         ),
-    ] = "llm",
+    ] = None,
     planner_name: Annotated[
         str,
         typer.Option(
@@ -188,6 +211,8 @@ def solve_command(
     if no_uct:
         planner_name = "stalm-no-uct"
     entry = planner_entry(planner_name)
+    if proposer_name is None:
+        proposer_name = default_proposer(entry.name, llm)
     config = PlannerConfig(
         llm=llm,
         proposer=proposer_name,

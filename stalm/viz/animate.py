@@ -16,9 +16,9 @@ from stalm.viz.render import perspective, top_down
 from stalm.world.scene import Sim
 from stalm.world.state import State
 
-BASE_STEP = 0.4
+BASE_STEP = 0.6
 """Metres the base moves between two frames."""
-ARM_FRAMES = 8
+ARM_FRAMES = 3
 """Frames per arm motion segment between two waypoints."""
 
 

@@ -93,34 +93,56 @@ def test_predicates_prompt_and_parse_reply_commands(
     assert parsed["errors"] and "counter9" in json.dumps(parsed["errors"])
 
 
-def test_solve_with_the_uct_planner_writes_json_that_replays(
+@pytest.mark.slow
+def test_the_readmes_first_solve_solves_offline_with_no_model_named(
     monkeypatch, capsys, tmp_path: Path, problems
 ) -> None:
-    result_file = tmp_path / "p2.json"
+    """The README's first command: with no model named, STaLM runs on the symbolic proposer,
+    says so naming how to run a model, reaches the goal, and writes a JSON that replays."""
+    for variable in ("STALM_LLM", "STALM_LLM_BASE_URL"):
+        monkeypatch.delenv(variable, raising=False)
+    result_file, gif = tmp_path / "p2.json", tmp_path / "p2.gif"
     code = run_cli(
         monkeypatch,
         "solve",
         "P2",
-        "--planner",
-        "uct",
         "--time-budget",
-        "40",
-        "--sims",
-        "35",
-        "--seed",
-        "0",
+        "300",
         "--json",
         str(result_file),
+        "--gif",
+        str(gif),
     )
+    captured = capsys.readouterr()
+    note = " ".join(captured.err.split())
+    assert "--proposer symbolic" in note and "--llm embedded" in note, captured.err
     data = json.loads(result_file.read_text())
-    assert data["planner"] == "uct" and data["problem"] == "P2"
+    assert (data["planner"], data["problem"], data["success"], code) == ("stalm", "P2", True, 0)
+    assert data["details"]["proposer"].startswith("symbolic") and data["counters"]["llm_calls"] == 0
     assert data["problem_hash"] == problems["P2"].content_hash
-    assert code == (0 if data["success"] else 1)
-    out = capsys.readouterr().out
-    assert "P2 with uct (seed 0)" in out
-    if data["success"]:
-        assert run_cli(monkeypatch, "replay", str(result_file)) == 0
-        assert "the goal is reached" in capsys.readouterr().out
+    assert "P2 with stalm (seed 0)" in captured.out
+    assert gif.read_bytes()[:6] == b"GIF89a"
+    assert run_cli(monkeypatch, "replay", str(result_file)) == 0
+    assert "the goal is reached" in capsys.readouterr().out
+
+
+def test_a_named_model_keeps_the_language_model_proposer(monkeypatch) -> None:
+    from stalm.cli.solve_commands import default_proposer
+
+    monkeypatch.delenv("STALM_LLM", raising=False)
+    monkeypatch.delenv("STALM_LLM_BASE_URL", raising=False)
+    assert default_proposer("stalm", None) == "symbolic"
+    assert default_proposer("stalm-no-uct", "") == "symbolic"
+    assert default_proposer("stalm", "embedded") == "llm"
+    assert default_proposer("ep-saycan", None) == "llm"  # no symbolic proposer there
+    monkeypatch.setenv("STALM_LLM", "ollama:llama3")
+    assert default_proposer("stalm", None) == "llm"
+    monkeypatch.delenv("STALM_LLM")
+    monkeypatch.setenv("STALM_LLM_BASE_URL", "http://127.0.0.1:9/v1")
+    assert default_proposer("stalm", None) == "llm"
+
+
+def test_an_unknown_planner_is_a_usage_error(monkeypatch) -> None:
     assert run_cli(monkeypatch, "solve", "P2", "--planner", "nope") == 2
 
 

@@ -48,6 +48,7 @@ MINIMAL_PLANS: dict[str, tuple[DiscreteAction, ...]] = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(MINIMAL_PLANS))
 def test_optimal_length_is_a_real_minimal_plan(domain_factory, initial_literals, name: str) -> None:
     domain = domain_factory(name)

@@ -98,8 +98,13 @@ def test_max_tokens_cuts_the_reply(backend: EmbeddedBackend) -> None:
 @pytest.mark.slow
 def test_a_prompt_longer_than_the_context_is_a_user_error() -> None:
     small = EmbeddedBackend(n_ctx=128)
-    with pytest.raises(StalmError, match="does not fit"):
+    with pytest.raises(StalmError, match="does not fit") as refused:
         small.complete(LLMRequest(system="s", user="word " * 400, max_tokens=4))
+    message = str(refused.value)
+    # names the prompt's size, the context and what to use instead, before loading weights
+    assert re.search(r"the prompt is \d{3} tokens", message) and "context of 128 tokens" in message
+    assert "--proposer symbolic" in message and "\n" not in message
+    assert small._llama is None
 
 
 @pytest.mark.slow

@@ -191,6 +191,7 @@ def test_with_nothing_affordable_left_the_trial_ends_without_asking_again(proble
 _SALTER_OCCLUDED = [GroundLiteral("PickOccludedBy", ("salter", "bottle2"))]
 
 
+@pytest.mark.slow
 def test_saycan_solves_p2_when_the_replies_name_the_right_next_action(problems) -> None:
     def responder(request: LLMRequest) -> list[str]:
         done = _history_length(request)

@@ -60,6 +60,13 @@ LOCAL_SERVERS: dict[str, tuple[str, ConstraintStyle]] = {
 }
 
 
+def model_configured(spec: str | None = None) -> bool:
+    """Has the user named a language model (``--llm``, ``$STALM_LLM`` or a server in
+    ``$STALM_LLM_BASE_URL``)? Without one, ``stalm solve`` warm-starts STaLM from the symbolic
+    proposer rather than the bundled 135M model, which rarely writes a plan that grounds."""
+    return bool((spec or "").strip() or os.environ.get(SPEC_ENV) or os.environ.get(BASE_URL_ENV))
+
+
 def make_backend(spec: str | None = None, *, cache_dir: Path | None = None) -> LLMBackend:
     """The backend a ``--llm`` spec string names (see the module docstring for the forms).
 
@@ -100,4 +107,5 @@ __all__ = [
     "OutputConstraint",
     "RetryPolicy",
     "make_backend",
+    "model_configured",
 ]

@@ -196,6 +196,7 @@ class EmbeddedBackend:
         self._cache_dir = cache_dir
         self._lock = threading.Lock()
         self._llama: Any = None
+        self._vocabulary: Any = None
         self._formatter: Any = None
         self._valid_grammars: set[str] = set()
         self._chunks_in_cache: list[int] = []
@@ -234,47 +235,66 @@ class EmbeddedBackend:
     def _load(self) -> Any:
         if self._llama is not None:
             return self._llama
+        llama = self._open(vocab_only=False)
+        self._formatter = _chat_formatter(llama, self._info)
+        self._llama = llama
+        self._vocabulary = None
+        return llama
+
+    def _tokenizer(self) -> Any:
+        """The loaded model, or before it is loaded its vocabulary alone: enough to count a
+        prompt's tokens, so a prompt too long for the context is refused before the weights
+        are read (for a multi-gigabyte GGUF, the difference between a second and a minute)."""
+        if self._llama is not None:
+            return self._llama
+        if self._vocabulary is None:
+            self._vocabulary = self._open(vocab_only=True)
+            self._formatter = _chat_formatter(self._vocabulary, self._info)
+        return self._vocabulary
+
+    def _open(self, *, vocab_only: bool) -> Any:
         path = self.model_path
         if not path.is_file():
             raise StalmError(f"embedded model file {path} does not exist")
         try:
             from llama_cpp import Llama
-            from llama_cpp.llama_chat_format import Jinja2ChatFormatter
         except ImportError as error:
             raise StalmError(
                 "the embedded backend needs llama-cpp-python: pip install llama-cpp-python"
             ) from error
         try:
-            llama = Llama(
+            return Llama(
                 model_path=str(path),
                 n_ctx=self._n_ctx,
                 n_threads=self._n_threads,
                 n_threads_batch=self._n_threads,
                 flash_attn=self._flash_attn,
+                vocab_only=vocab_only,
                 verbose=False,
             )
         except (ValueError, RuntimeError) as error:
             raise StalmError(f"llama.cpp cannot load the model file {path}: {error}") from error
-        eos_id, bos_id = llama.token_eos(), llama.token_bos()
-        template = (
-            (self._info.chat_template if self._info else None)
-            or llama.metadata.get("tokenizer.chat_template")
-            or _CHATML_TEMPLATE
-        )
-        self._formatter = Jinja2ChatFormatter(
-            template=template,
-            eos_token=llama._model.token_get_text(eos_id) if eos_id != -1 else "",
-            bos_token=llama._model.token_get_text(bos_id) if bos_id != -1 else "",
-            stop_token_ids=[eos_id],
-        )
-        self._llama = llama
-        return llama
+
+    def check_fits(self, request: LLMRequest) -> None:
+        """Raise a :class:`StalmError` naming the prompt's size, the context and what to use
+        instead if ``request``'s prompt cannot fit this model's context."""
+        with self._lock:
+            tokens = self._tokenize(self._tokenizer(), request.system, request.user)
+        self._refuse_if_too_long(len(tokens))
+
+    def _refuse_if_too_long(self, prompt_tokens: int) -> None:
+        if prompt_tokens + 1 >= self._n_ctx:
+            raise StalmError(
+                f"the prompt is {prompt_tokens} tokens and does not fit the embedded model "
+                f"{self.model}'s context of {self._n_ctx} tokens: use --proposer symbolic (no "
+                "model), --no-occlusion (a shorter prompt) or a served model with a longer "
+                "context (--llm openai:MODEL or --llm http://HOST:PORT/v1#MODEL)"
+            )
 
     def prompt_tokens(self, system: str, user: str) -> list[int]:
         """The prompt as the model sees it: chat template applied, then tokenized."""
         with self._lock:
-            llama = self._load()
-            return self._tokenize(llama, system, user)
+            return self._tokenize(self._tokenizer(), system, user)
 
     def _tokenize(self, llama: Any, system: str, user: str) -> list[int]:
         messages = [{"role": "system", "content": system}, {"role": "user", "content": user}]
@@ -285,6 +305,7 @@ class EmbeddedBackend:
         return tokens
 
     def complete(self, request: LLMRequest) -> LLMResponse:
+        self.check_fits(request)  # before the weights are loaded
         with self._lock:
             llama = self._load()
             replies = self._sample_batch(llama, request)
@@ -317,11 +338,7 @@ class EmbeddedBackend:
 
         tokens = self._tokenize(llama, request.system, request.user)
         context = llama.n_ctx()
-        if len(tokens) + 1 >= context:
-            raise StalmError(
-                f"prompt of {len(tokens)} tokens does not fit the embedded model {self.model}'s "
-                f"context of {context} tokens"
-            )
+        self._refuse_if_too_long(len(tokens))
         max_tokens = min(request.max_tokens, context - len(tokens))
         grammar = None
         if request.constraint is not None:
@@ -396,6 +413,24 @@ class EmbeddedBackend:
         while common < limit and cached[common] == tokens[common]:
             common += 1
         return common - common % _EVAL_CHUNK
+
+
+def _chat_formatter(llama: Any, info: EmbeddedModel | None) -> Any:
+    """The chat template the model was trained with (the package's, the file's, or ChatML)."""
+    from llama_cpp.llama_chat_format import Jinja2ChatFormatter
+
+    eos_id, bos_id = llama.token_eos(), llama.token_bos()
+    template = (
+        (info.chat_template if info else None)
+        or llama.metadata.get("tokenizer.chat_template")
+        or _CHATML_TEMPLATE
+    )
+    return Jinja2ChatFormatter(
+        template=template,
+        eos_token=llama._model.token_get_text(eos_id) if eos_id != -1 else "",
+        bos_token=llama._model.token_get_text(bos_id) if bos_id != -1 else "",
+        stop_token_ids=[eos_id],
+    )
 
 
 _EVAL_CHUNK = 512

@@ -1,0 +1,50 @@
+"""The Python API: what a script needs to load a problem, build and run a planner, inspect
+the result, replay it, and plug in its own task-plan proposer.
+
+Everything here is re-exported from the module that owns it, so this file is the one place
+to look (and the one the README's examples import from); it imports the planners, so it sits
+at the top of the layer order beside the CLI. ``import stalm`` alone stays light.
+
+A proposer is any object with a ``name`` and a ``propose`` method of the
+:class:`TaskPlanProposer` form; add a ``feedback`` keyword (:class:`FeedbackProposer`) and
+STaLM also tells it which steps failed.
+"""
+
+from __future__ import annotations
+
+from stalm.domain.actions import DiscreteAction, Open, Pick, Place
+from stalm.errors import StalmError
+from stalm.planners.base import PlanResult
+from stalm.planners.feedback import FailedStep
+from stalm.planners.proposers import FeedbackProposer, LLMProposer, Proposal, TaskPlanProposer
+from stalm.planners.registry import PlannerConfig, build_planner, planners
+from stalm.planners.replay import ReplayReport, replay_plan
+from stalm.planners.stalm import StalmPlanner, StalmSettings
+from stalm.planners.symbolic import SymbolicProposer
+from stalm.world.problem import Problem, load_problem
+from stalm.world.state import State
+
+__all__ = [
+    "DiscreteAction",
+    "FailedStep",
+    "FeedbackProposer",
+    "LLMProposer",
+    "Open",
+    "Pick",
+    "Place",
+    "PlanResult",
+    "PlannerConfig",
+    "Problem",
+    "Proposal",
+    "ReplayReport",
+    "StalmError",
+    "StalmPlanner",
+    "StalmSettings",
+    "State",
+    "SymbolicProposer",
+    "TaskPlanProposer",
+    "build_planner",
+    "load_problem",
+    "planners",
+    "replay_plan",
+]
