@@ -109,6 +109,7 @@ def test_stalm_view_writes_the_page_and_names_a_bad_file(monkeypatch, capsys, tm
     assert "broken.json" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # a solve: the scene check, roadmaps and 3 s of search (10-30 s)
 def test_solve_writes_the_page_with_html(monkeypatch, capsys, tmp_path) -> None:
     page = tmp_path / "uct.html"
     code = run_cli(
