@@ -32,6 +32,7 @@ def _register_commands() -> None:
         llm_commands,
         predicate_commands,
         solve_commands,
+        view_commands,
         world_commands,
     )
 

@@ -168,6 +168,10 @@ def solve_command(
     gif: Annotated[
         Path | None, typer.Option("--gif", help="Write an animation of the plan.")
     ] = None,
+    html: Annotated[
+        Path | None,
+        typer.Option("--html", help="Write the page of `stalm view` (scene, plan, search)."),
+    ] = None,
     feedback: Annotated[
         bool | None,
         typer.Option(
@@ -196,7 +200,7 @@ def solve_command(
     )
 
     check_solve_numbers(seed, time_budget, sims, batch)
-    for path, option in ((json_out, "--json"), (gif, "--gif")):
+    for path, option in ((json_out, "--json"), (gif, "--gif"), (html, "--html")):
         if path is not None:
             check_output_file(path, option)
     loaded = load_problem(problem)
@@ -259,6 +263,10 @@ def solve_command(
         fallback = written if written != json_out else None
     if gif is not None:
         _write_gif(loaded, result, gif)
+    if html is not None:
+        from stalm.cli.view_commands import write_view_page
+
+        write_view_page(loaded, {**result.to_json(), PROBLEM_HASH_FIELD: loaded.content_hash}, html)
     if fallback is not None:
         raise StalmError(f"--json {json_out} could not be written; the result is in {fallback}")
     if not result.success:

@@ -27,7 +27,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Literal, cast
+from typing import Any, Literal, cast
 
 import numpy as np
 
@@ -40,6 +40,7 @@ from stalm.planners.episode import Episode, run_episode
 from stalm.planners.feedback import FeedbackMemory, failed_steps
 from stalm.planners.hcount import HcountLeafValue
 from stalm.planners.proposers import FeedbackProposer, TaskPlanProposer, takes_feedback
+from stalm.planners.step_log import proposal_record, tree_record, warm_edges
 from stalm.predicates.engine import PredicateEngine
 from stalm.search import (
     ConcretePlan,
@@ -170,6 +171,7 @@ class StalmPlanner:
             "feedback_steps_learned": len(trial.memory.steps),
             "reused_root_visits": trial.reused_root_visits,
             "steps": trial.step_records,
+            "step_log": trial.step_log,
         }
         if isinstance(trial.policies.value, HcountLeafValue):
             details["hcount_leaves"] = {
@@ -205,6 +207,11 @@ class _Trial:
     proposals: int = 0
     reused_root_visits: list[int] = field(default_factory=list)
     step_records: list[dict[str, object]] = field(default_factory=list)
+    step_log: list[dict[str, Any]] = field(default_factory=list)
+    """Per real step: the task plans and their fate, the tree, the decision
+    (:mod:`stalm.planners.step_log`)."""
+    _step: dict[str, Any] = field(default_factory=dict)
+    """The current step's entry of ``step_log``."""
 
     def __post_init__(self) -> None:
         self.settings = self.planner.settings
@@ -220,10 +227,16 @@ class _Trial:
         episode, domain = self.episode, self.domain
         while (termination := episode.stop_reason(domain)) is None:
             self.replans += 1
+            self._step = {"step": len(episode.executed), "proposals": [], "tree": None}
+            self.step_log.append(self._step)
             plans, solution = self._propose_and_concretize()
             if episode.out_of_time() and solution is None:
+                self._step["decision"] = "timeout"
                 return "timeout"
+            if solution is not None:
+                self._step["decision"] = "concretize_goal"
             to_execute = solution if solution is not None else self._decide(plans)
+            self._step["executed"] = len(to_execute)
             # nothing feasible found: ask again from the same state
             for action in to_execute:
                 before = episode.state
@@ -291,6 +304,9 @@ class _Trial:
             )
             episode.clock.concretize += time.monotonic() - tick
             episode.count_failures(concrete)
+            self._step["proposals"].append(
+                proposal_record(round_, len(feedback), concrete.plans, predicates.literals)
+            )
             plans.extend(concrete.plans)
             if concrete.success and concrete.solution is not None:
                 return plans, concrete.solution
@@ -328,6 +344,7 @@ class _Trial:
         """What to execute when Concretize reached no goal: the tree's goal plan if the search
         finds one, else one root action chosen by the execution rule."""
         if not self.settings.use_tree:
+            self._step["decision"] = "best_prefix"
             return _first_action_of_best_prefix(plans)
         episode, domain = self.episode, self.domain
         state = episode.state
@@ -335,7 +352,13 @@ class _Trial:
         search = self.settings.search
         if self.tree is None or self.tree.root != state:
             self.tree = SearchTree.for_root(domain, state)
+        tree, visits_before = self.tree, self.tree.visits(state)
         share_end = self._share_end()
+
+        def decided(how: str) -> None:
+            self._step["decision"] = how
+            self._step["tree"] = tree_record(tree, warm_edges(plans), visits_before)
+
         warm = plans
         while True:
             tick = time.monotonic()
@@ -354,19 +377,24 @@ class _Trial:
             episode.clock.tree += time.monotonic() - tick
             self.simulations += result.counters.simulations
             if result.goal_plan:
+                decided("tree_goal")
                 return result.goal_plan
             if result.best_action is None:
+                decided("nothing")
                 return ()
             if self.settings.execution == "best_q":
+                decided("best_q")
                 return (result.best_action,)
             promising = _best_promising_action(self.tree, domain)
             if promising is not None:
+                decided("progress")
                 return (promising,)
             if (
                 result.stop_reason == "deadline"
                 or time.monotonic() >= share_end
                 or search.budget == 0
             ):
+                decided("best_q_fallback")
                 return (result.best_action,)
             warm = []
 

@@ -4,7 +4,7 @@ swinging. Frames are rendered with TinyRenderer (headless) and written as a GIF.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from PIL import Image
@@ -35,17 +35,24 @@ def plan_frames(
     sim: Sim, start: State, plan: Sequence[tuple[Action, State]], size: int = 240
 ) -> list[Image.Image]:
     """Frames of ``plan``: pairs of an action and the state it leads to, from ``start``."""
-    frames: list[Image.Image] = []
+    return [_frame(sim, size) for _ in plan_motion(sim, start, plan)]
+
+
+def plan_motion(sim: Sim, start: State, plan: Sequence[tuple[Action, State]]) -> Iterator[int]:
+    """Set ``sim`` to each frame of ``plan`` in turn (the base driving, the arm moving, the
+    door swinging) and yield, while it shows that frame, the index of the action being
+    executed (-1 for the start). The GIF and ``stalm view``'s page both follow this motion,
+    so they show the same thing."""
     state = start
     sim.set_state(state)
-    frames.append(_frame(sim, size))
-    for action, next_state in plan:
+    yield -1
+    for number, (action, next_state) in enumerate(plan):
         params = action.params
         sim.set_state(state)
         path = densify(params.base_path, BASE_STEP)
         for pose in path[1:]:
             sim.set_base_only(pose)
-            frames.append(_frame(sim, size))
+            yield number
         stand = params.base_path.corners[-1]
         sim.set_base_only(stand)
         if isinstance(params, PickParams):
@@ -65,7 +72,7 @@ def plan_frames(
                 sim.place_object(action.discrete.as_tuple()[1], params.placement)
             conf = dense[index]
             sim.set_arm(stand, conf[0], conf[1:])
-            frames.append(_frame(sim, size))
+            yield number
         if isinstance(params, OpenParams):
             door = sim.problem.door(action.discrete.as_tuple()[1])
             for t in (0.25, 0.5, 0.75, 1.0):
@@ -73,11 +80,10 @@ def plan_frames(
                     door.open_yaw - door.closed_yaw, math.tau
                 )
                 sim.set_door_angle(door.name, yaw)
-                frames.append(_frame(sim, size))
+                yield number
         state = next_state
         sim.set_state(state)
-        frames.append(_frame(sim, size))
-    return frames
+        yield number
 
 
 def _index_of(dense: list[tuple[float, ...]], conf: tuple[float, ...]) -> int:

@@ -1,0 +1,54 @@
+"""``stalm view``: a result file as one HTML page (the scene animated through the plan, the
+plan's parameters, and per real step the task plans, their failures and the search tree)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+
+from stalm.cli.display import shown
+from stalm.cli.main import app
+from stalm.cli.paths import check_output_file
+from stalm.world.problem import Problem, load_problem
+
+console = Console(stderr=True)
+out = Console()
+
+
+def write_view_page(problem: Problem, data: dict[str, Any], path: Path, source: str = "") -> None:
+    """Build the page of the result ``data`` (planned for ``problem``) and write it to
+    ``path``; used by ``stalm view`` and ``stalm solve --html``."""
+    from stalm.viz.view_data import view_data
+    from stalm.viz.view_page import write_page
+
+    with console.status("building the page (replaying the plan)..."):
+        size = write_page(view_data(problem, data, source), path)
+    out.print(f"wrote {shown(path)} ({size / 1e6:.1f} MB, opens offline)", highlight=False)
+
+
+@app.command("view")
+def view_command(
+    result_file: Annotated[
+        Path, typer.Argument(help="A JSON result written by stalm solve --json.")
+    ],
+    output: Annotated[
+        Path | None,
+        typer.Option("--output", "-o", help="The page to write (default: RESULT with .html)."),
+    ] = None,
+    problem: Annotated[
+        str | None, typer.Option(help="Problem (default: the one named in the file).")
+    ] = None,
+) -> None:
+    """Write a self-contained HTML page of a result: the 3D scene animated through the plan,
+    the plan's continuous parameters, and per step the task plans, why each failed, and the
+    search tree."""
+    from stalm.viz.view_data import load_result
+
+    page = output if output is not None else result_file.with_suffix(".html")
+    check_output_file(page, "--output")
+    data = load_result(result_file)
+    loaded = load_problem(problem or str(data.get("problem", "")))
+    write_view_page(loaded, data, page, source=result_file.name)

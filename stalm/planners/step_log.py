@@ -1,0 +1,150 @@
+"""What one real step of STaLM did, as plain JSON for the result file (``details["step_log"]``).
+
+A solve's table and GIF show what was executed; this record says why. Per real step: every
+task plan the proposer offered in each round, how far Concretize got with it, the paper's
+Figure 5 kind of its failure and the transition's own reason (the :class:`Infeasibility` kind,
+its sentence and the bodies in the way); the search tree's root actions with N and Q after
+the step's search, marking the nodes the warm start put there; and the rule that chose what
+was executed. ``stalm view`` draws these records; they are data, so a script can read them too.
+
+The functions here only read the planner's objects (Concretize's plans, the tree): the
+planner decides when to call them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+from stalm.domain.outcome import Infeasibility
+from stalm.predicates.literals import GroundLiteral
+from stalm.search.concretize import ConcretePlan
+from stalm.search.failure_kinds import figure5_kind
+from stalm.search.tree import ContinuousNodeView, SearchTree
+from stalm.world.state import State
+
+TREE_CHILDREN_SHOWN = 8
+"""Second-level actions kept per root action (the most visited ones): the record stays small
+while still showing where each root action's simulations went next."""
+
+DECISIONS: dict[str, str] = {
+    "concretize_goal": "a proposed task plan reached the goal in Concretize: executed whole",
+    "tree_goal": "a simulation of the warm-started tree reached the goal: its plan executed",
+    "best_q": "no goal plan: the root action with the highest Q executed (the authors' rule)",
+    "progress": "no goal plan: the highest-Q root action from which the tree knows a way to "
+    "goal progress executed",
+    "best_q_fallback": "no goal plan and no root action known to lead to goal progress within "
+    "the step's share of time: the highest-Q root action executed",
+    "best_prefix": "STaLM w/o UCT: the first action of the task plan that got furthest",
+    "nothing": "no root action had a feasible sample: nothing executed, asked again",
+    "timeout": "the time budget ran out during the step",
+}
+"""Why a step executed what it executed, by the ``decision`` a step record holds."""
+
+
+def action_json(action: object) -> list[str]:
+    """A discrete action as in result files (``["place", "salter", "right_of", "bottle1"]``)."""
+    as_tuple = getattr(action, "as_tuple", None)
+    return list(as_tuple()) if callable(as_tuple) else [str(action)]
+
+
+def _reason(plan: ConcretePlan) -> dict[str, Any] | None:
+    """The failed step's Infeasibility: kind, sentence and blockers (None if no step failed)."""
+    if plan.failed_step is None or plan.failed_step >= len(plan.steps):
+        return None
+    step = plan.steps[plan.failed_step]
+    why = step.kappa if isinstance(step.kappa, Infeasibility) else step.outcome.failure
+    if why is None:
+        return None
+    return {"kind": why.kind, "detail": why.detail, "blockers": list(why.blockers)}
+
+
+def task_plan_record(plan: ConcretePlan, root_literals: Iterable[GroundLiteral]) -> dict[str, Any]:
+    """One task plan and what Concretize did with it.
+
+    ``kind`` is the Figure 5 kind (as the experiment counts it, occlusion of the first step
+    judged by ``root_literals``, the prompt's predicates); ``concretize_kind`` is the
+    transition's own; ``feasible_steps`` is how many steps got a feasible κ.
+    """
+    return {
+        "index": plan.index,
+        "actions": [action_json(action) for action in plan.task_plan.actions],
+        "unparseable": plan.task_plan.unparseable,
+        "reached_goal": plan.reached_goal,
+        "kind": figure5_kind(plan, root_literals),
+        "concretize_kind": plan.failure,
+        "failed_step": plan.failed_step,
+        "feasible_steps": len(plan.actions),
+        "truncated": plan.truncated,
+        "detail": plan.detail,
+        "reason": _reason(plan),
+    }
+
+
+def proposal_record(
+    round_: int,
+    feedback_facts: int,
+    plans: Sequence[ConcretePlan],
+    root_literals: Iterable[GroundLiteral],
+) -> dict[str, Any]:
+    """One proposal round of a step: the facts the proposer was told and the plans it gave."""
+    literals = frozenset(root_literals)
+    return {
+        "round": round_,
+        "feedback_facts": feedback_facts,
+        "plans": [task_plan_record(plan, literals) for plan in plans],
+    }
+
+
+def warm_edges(plans: Iterable[ConcretePlan]) -> frozenset[tuple[State, object]]:
+    """(state, discrete action) of every step the warm start put into the tree."""
+    return frozenset((step.state, step.action) for plan in plans for step in plan.steps)
+
+
+def _action_node(
+    cont: ContinuousNodeView, state: State, warm: frozenset[tuple[State, object]]
+) -> dict[str, Any]:
+    return {
+        "action": action_json(cont.action),
+        "n": cont.n,
+        "q": round(cont.q, 4),
+        "kappas": len(cont.children),
+        "feasible_kappas": sum(child.outcome.feasible for child in cont.children),
+        "warm": (state, cont.action) in warm,
+    }
+
+
+def tree_record(
+    tree: SearchTree, warm: frozenset[tuple[State, object]], visits_before: int = 0
+) -> dict[str, Any]:
+    """The tree after a step's search: every root action that was visited or warm-started
+    (with N, Q, κ counts and whether the warm start put it there), and below each the most
+    visited actions from the state its most visited feasible κ leads to. Root actions never
+    tried are only counted. ``visits_before`` is the root's N before the step (tree reuse)."""
+    root = tree.node(tree.root)
+    shown: list[dict[str, Any]] = []
+    for cont in sorted(root.children, key=lambda c: (-c.n, -c.q)):
+        if cont.n == 0 and (tree.root, cont.action) not in warm:
+            continue
+        record = _action_node(cont, tree.root, warm)
+        feasible = [k for k in cont.children if k.outcome.feasible and k.n > 0]
+        children: list[dict[str, Any]] = []
+        if feasible:
+            best = max(feasible, key=lambda k: (k.n, k.q))
+            following = best.outcome.state
+            if following in tree:
+                below = [c for c in tree.node(following).children if c.n > 0]
+                below.sort(key=lambda c: (-c.n, -c.q))
+                children = [_action_node(c, following, warm) for c in below[:TREE_CHILDREN_SHOWN]]
+        record["children"] = children
+        shown.append(record)
+    stats = tree.stats()
+    return {
+        "root_visits": root.n,
+        "root_visits_before": visits_before,
+        "discrete_nodes": stats.discrete_nodes,
+        "kappa_children": stats.kappa_children,
+        "root_actions": len(root.children),
+        "untried_root_actions": len(root.children) - len(shown),
+        "actions": shown,
+    }
