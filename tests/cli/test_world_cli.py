@@ -98,10 +98,11 @@ def test_the_readmes_first_solve_solves_offline_with_no_model_named(
     monkeypatch, capsys, tmp_path: Path, problems
 ) -> None:
     """The README's first command: with no model named, STaLM runs on the symbolic proposer,
-    says so naming how to run a model, reaches the goal, and writes a JSON that replays."""
+    says so naming how to run a model, reaches the goal, and writes a JSON that replays, a GIF
+    and the page of `stalm view`."""
     for variable in ("STALM_LLM", "STALM_LLM_BASE_URL"):
         monkeypatch.delenv(variable, raising=False)
-    result_file, gif = tmp_path / "p2.json", tmp_path / "p2.gif"
+    result_file, gif, page = tmp_path / "p2.json", tmp_path / "p2.gif", tmp_path / "p2.html"
     code = run_cli(
         monkeypatch,
         "solve",
@@ -112,6 +113,8 @@ def test_the_readmes_first_solve_solves_offline_with_no_model_named(
         str(result_file),
         "--gif",
         str(gif),
+        "--html",
+        str(page),
     )
     captured = capsys.readouterr()
     note = " ".join(captured.err.split())
@@ -122,6 +125,8 @@ def test_the_readmes_first_solve_solves_offline_with_no_model_named(
     assert data["problem_hash"] == problems["P2"].content_hash
     assert "P2 with stalm (seed 0)" in captured.out
     assert gif.read_bytes()[:6] == b"GIF89a"
+    html = page.read_text(encoding="utf-8")
+    assert html.startswith("<!DOCTYPE html>") and "salter" in html
     assert run_cli(monkeypatch, "replay", str(result_file)) == 0
     assert "the goal is reached" in capsys.readouterr().out
 
