@@ -11,10 +11,8 @@ from rich.console import Console
 from rich.table import Table
 
 from stalm.cli.display import shown
-from stalm.cli.main import app
 
 bench_app = typer.Typer(help="Benchmarks: speed figures of the world, predicates, LLM and search.")
-app.add_typer(bench_app, name="bench")
 console = Console()
 
 

@@ -18,8 +18,10 @@ from rich.progress import (
 )
 
 from stalm.cli.display import printable, shown
-from stalm.cli.main import app
 from stalm.errors import StalmError
+
+commands = typer.Typer()
+"""The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
 
 console = Console(stderr=True)
 out = Console()
@@ -31,7 +33,7 @@ def _names(text: str | None) -> tuple[str, ...] | None:
     return tuple(part.strip() for part in text.split(",") if part.strip())
 
 
-@app.command("experiment")
+@commands.command("experiment")
 def experiment_command(
     name: Annotated[str, typer.Argument(help="table2, table3, table4 or figure5.")],
     problems: Annotated[
@@ -205,7 +207,7 @@ def _report(paths: list[Path], out_dir: Path, name: str, *, paper: bool) -> None
     console.print("wrote " + ", ".join(shown(p) for p in written), highlight=False)
 
 
-@app.command("report")
+@commands.command("report")
 def report_command(
     results: Annotated[list[Path], typer.Argument(help="JSON-lines results files.")],
     out_dir: Annotated[

@@ -1,7 +1,9 @@
-"""The ``stalm`` command: one Typer app; each command group lives in its own module.
+"""The ``stalm`` command: one Typer app composed here of the command modules' own apps.
 
-Command modules register themselves by being imported here. A :class:`~stalm.errors.StalmError`
-raised anywhere becomes one clear ``error:`` line and exit code 2 instead of a traceback.
+Each command module defines its commands on a Typer of its own (``commands``, or a named group
+such as ``bench_app``) and imports nothing back from here, so the modules form no import
+circle. A :class:`~stalm.errors.StalmError` raised anywhere becomes one clear ``error:`` line
+and exit code 2 instead of a traceback.
 """
 
 from __future__ import annotations
@@ -11,6 +13,16 @@ import sys
 import typer
 from rich.console import Console
 
+from stalm.cli import (
+    bench_commands,
+    experiment_commands,
+    llm_commands,
+    predicate_commands,
+    solve_commands,
+    view_commands,
+    world_commands,
+)
+from stalm.cli.display import shown
 from stalm.errors import StalmError
 
 app = typer.Typer(
@@ -20,24 +32,19 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
+# the order of `stalm --help`: top-level commands first, then the groups
+for module in (
+    experiment_commands,
+    world_commands,
+    predicate_commands,
+    solve_commands,
+    view_commands,
+):
+    app.add_typer(module.commands)
+app.add_typer(bench_commands.bench_app, name="bench")
+app.add_typer(llm_commands.llm_app, name="llm")
 
 ERROR_CONSOLE = Console(stderr=True)
-
-
-def _register_commands() -> None:
-    """Import the command modules; each adds its commands to :data:`app` (once)."""
-    from stalm.cli import (  # noqa: F401
-        bench_commands,
-        experiment_commands,
-        llm_commands,
-        predicate_commands,
-        solve_commands,
-        view_commands,
-        world_commands,
-    )
-
-    if not any(group.name == "llm" for group in app.registered_groups):
-        app.add_typer(llm_commands.llm_app, name="llm")
 
 
 def main() -> None:
@@ -47,9 +54,6 @@ def main() -> None:
     a command (bad file, unknown name, unreachable server) is printed as one ``error:`` line
     with exit code 2 instead of a traceback (quoted text escaped, see :mod:`stalm.cli.display`).
     """
-    from stalm.cli.display import shown
-
-    _register_commands()
     try:
         app()
     except StalmError as error:

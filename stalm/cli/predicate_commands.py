@@ -11,7 +11,6 @@ import typer
 from rich.console import Console
 
 from stalm.cli.display import printable
-from stalm.cli.main import app
 from stalm.cli.text_commands import format_parsed_reply_json, format_prompt, parse_reply_file
 from stalm.cli.world_commands import read_state_file
 from stalm.domain.vocabulary import Vocabulary
@@ -19,6 +18,9 @@ from stalm.llm.problem_prompt import ordered_literals, problem_prompt
 from stalm.llm.prompt import PromptOptions
 from stalm.predicates.literals import GroundLiteral
 from stalm.world.problem import Problem, load_problem
+
+commands = typer.Typer()
+"""The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
 
 console = Console()
 
@@ -43,7 +45,7 @@ def compute_literals(problem: Problem, state_file: Path | None) -> list[GroundLi
     return ordered_literals(problem, cache.literals)
 
 
-@app.command("predicates")
+@commands.command("predicates")
 def predicates_command(
     problem: ProblemArg,
     state_file: StateOpt = None,
@@ -60,7 +62,7 @@ def predicates_command(
     typer.echo(f"# {len(literals)} literals", err=True)
 
 
-@app.command("prompt")
+@commands.command("prompt")
 def prompt_command(
     problem: ProblemArg,
     state_file: StateOpt = None,
@@ -82,7 +84,7 @@ def prompt_command(
     typer.echo(printable(format_prompt(problem_prompt(loaded, literals, options))))
 
 
-@app.command("parse-reply")
+@commands.command("parse-reply")
 def parse_reply_command(
     reply: Annotated[Path, typer.Argument(help="A text file holding a model's reply.")],
     problem: Annotated[str, typer.Option("--problem", "-p", help="The problem it answers.")],

@@ -12,12 +12,14 @@ from rich.console import Console
 from rich.table import Table
 
 from stalm.cli.display import shown
-from stalm.cli.main import app
 from stalm.cli.paths import check_output_file, write_or_fall_back
 from stalm.domain.params import PickParams, PlaceParams
 from stalm.errors import StalmError
 from stalm.planners.base import PlanResult
 from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
+
+commands = typer.Typer()
+"""The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
 
 console = Console(stderr=True)
 out = Console()
@@ -108,7 +110,7 @@ def default_proposer(planner: str, llm: str | None) -> str:
     return "llm"
 
 
-@app.command("solve")
+@commands.command("solve")
 def solve_command(
     problem: Annotated[str, typer.Argument(help="Problem name (P5) or path to a problem file.")],
     llm: Annotated[
@@ -289,7 +291,7 @@ def _write_gif(problem: object, result: PlanResult, path: Path) -> None:
     out.print(f"wrote {shown(path)} ({len(frames)} frames)", highlight=False)
 
 
-@app.command("replay")
+@commands.command("replay")
 def replay_command(
     result_file: Annotated[
         Path, typer.Argument(help="A JSON result written by stalm solve --json.")
@@ -338,7 +340,7 @@ def replay_command(
         raise typer.Exit(1)
 
 
-@app.command("planners")
+@commands.command("planners")
 def planners_command() -> None:
     """List every planner `stalm solve --planner` and `stalm experiment` accept."""
     from stalm.planners.registry import planners

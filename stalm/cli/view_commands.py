@@ -10,12 +10,13 @@ import typer
 from rich.console import Console
 
 from stalm.cli.display import shown
-from stalm.cli.main import app
 from stalm.cli.paths import check_output_file
 from stalm.world.problem import Problem, load_problem
 
 console = Console(stderr=True)
 out = Console()
+commands = typer.Typer()
+"""The ``view`` command, composed into the ``stalm`` app by :mod:`stalm.cli.main`."""
 
 
 def write_view_page(problem: Problem, data: dict[str, Any], path: Path, source: str = "") -> None:
@@ -29,7 +30,7 @@ def write_view_page(problem: Problem, data: dict[str, Any], path: Path, source: 
     out.print(f"wrote {shown(path)} ({size / 1e6:.1f} MB, opens offline)", highlight=False)
 
 
-@app.command("view")
+@commands.command("view")
 def view_command(
     result_file: Annotated[
         Path, typer.Argument(help="A JSON result written by stalm solve --json.")

@@ -11,11 +11,13 @@ from rich.console import Console
 from rich.table import Table
 
 from stalm.cli.display import shown
-from stalm.cli.main import app
 from stalm.cli.paths import check_output_file
 from stalm.errors import StalmError
 from stalm.world.problem import Problem, available_problems, load_problem
 from stalm.world.state import State
+
+commands = typer.Typer()
+"""The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
 
 console = Console()
 
@@ -33,7 +35,7 @@ def _problem_row(problem: Problem) -> tuple[str, ...]:
     return tuple(shown(cell) for cell in cells)
 
 
-@app.command("problems")
+@commands.command("problems")
 def problems_command(
     file: Annotated[
         list[Path] | None, typer.Option("--file", "-f", help="List these problem files instead.")
@@ -83,7 +85,7 @@ def problems_command(
     console.print(table)
 
 
-@app.command("render")
+@commands.command("render")
 def render_command(
     problem: Annotated[str, typer.Argument(help="Problem name (P5) or path to a problem file.")],
     output: Annotated[Path, typer.Option("--output", "-o", help="PNG file to write.")] = Path(

@@ -17,32 +17,18 @@ import numpy as np
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import OpenParams, PickParams, PlaceParams
-from stalm.geometry.transforms import (
-    Pose3,
-    compose,
-    gripper_rotation,
-    invert,
-    quat_from_matrix,
-    se2_to_local,
-    se2_to_world,
-    wrap_angle,
-    yaw_quat,
-)
+from stalm.geometry.transforms import Pose3, compose, invert, wrap_angle
 from stalm.motion.arm_motion import first_collision, interpolate_waypoints
 from stalm.motion.base_motion import BasePath, BasePlanner
 from stalm.motion.grasps import (
-    APPROACH_DISTANCE,
-    LIFT_DISTANCE,
     PITCH_RANGE,
-    PLACE_CLEARANCE,
     YAW_RANGE,
     draw_placement,
     gripper_target,
     nearest_grasp_point,
     sample_grasp_angles,
 )
-from stalm.motion.ik import solve_ik
-from stalm.motion.reach import leave_waypoints, reach_waypoints, solution_conf
+from stalm.motion.manipulation import Manipulator, handle_target, placing_hand
 from stalm.world import robot as robot_model
 from stalm.world.relations import direction_between, supporting_region
 from stalm.world.scene import Sim
@@ -93,6 +79,7 @@ class Samplers:
         self.problem = sim.problem
         self.base = base_planner
         self.settings = settings
+        self.hands = Manipulator(sim)
 
     # ------------------------------------------------------------------ shared
     def names(self, bodies: set[int]) -> set[str]:
@@ -117,7 +104,10 @@ class Samplers:
         )
 
     def arm_motion_free(
-        self, base: tuple[float, float, float], waypoints: list[tuple[float, ...]], ignore: set[int]
+        self,
+        base: tuple[float, float, float],
+        waypoints: tuple[tuple[float, ...], ...],
+        ignore: set[int],
     ) -> set[int]:
         return first_collision(self.sim, base, interpolate_waypoints(waypoints), ignore)
 
@@ -145,24 +135,21 @@ class Samplers:
             target = gripper_target(point, stand[2], pitch, yaw)
             self.sim.set_state(state)
             self.sim.set_base_only(stand)
-            solution = solve_ik(self.sim, stand, target, rng, self.settings.ik_attempts)
-            if solution is None:
+            motion = self.hands.pick(stand, target, rng, self.settings.ik_attempts)
+            if motion is None:
                 failures.add("no_ik", f"no IK solution to grasp '{action.obj}'")
                 continue
-            grasp_conf = solution_conf(solution)
-            approach = reach_waypoints(self.sim, stand, target, solution, backoff=APPROACH_DISTANCE)
-            hits = self.arm_motion_free(stand, approach, {body})
+            hits = self.arm_motion_free(stand, motion.into, {body})
             if hits:
                 failures.add(
                     "arm_collision", f"reaching for '{action.obj}' collides", self.names(hits)
                 )
                 continue
-            self.sim.set_arm(stand, solution.lift, solution.arm)
+            self.sim.set_arm(stand, motion.key_conf[0], motion.key_conf[1:])
             grasp_pose = compose(invert(self.sim.gripper_pose()), self.sim.object_pose(action.obj))
             grasp = Grasp.make(action.obj, grasp_pose[0], grasp_pose[1])
             self.sim.attach(grasp)
-            lift_off = leave_waypoints(self.sim, stand, target, solution, raise_by=LIFT_DISTANCE)
-            hits = self.arm_motion_free(stand, lift_off, set())
+            hits = self.arm_motion_free(stand, motion.out, set())
             self.sim.attach(None)
             if hits:
                 failures.add("arm_collision", f"lifting '{action.obj}' collides", self.names(hits))
@@ -172,8 +159,8 @@ class Samplers:
                 pitch=pitch,
                 yaw=yaw,
                 grasp=grasp,
-                grasp_conf=grasp_conf,
-                arm_waypoints=(*approach, *lift_off[1:]),
+                grasp_conf=motion.key_conf,
+                arm_waypoints=motion.waypoints,
             )
         return failures.result(f"no grasp of '{action.obj}' found")
 
@@ -239,23 +226,20 @@ class Samplers:
                     self.names(hits),
                 )
                 continue
-            object_pose: Pose3 = ((placement.x, placement.y, placement.z), yaw_quat(placement.yaw))
-            hand = compose(object_pose, invert(state.held.pose))
-            solution = solve_ik(self.sim, stand, hand, rng, self.settings.ik_attempts)
-            if solution is None:
+            motion = self.hands.place(
+                stand, placing_hand(placement, state.held), rng, self.settings.ik_attempts
+            )
+            if motion is None:
                 failures.add("no_ik", f"no IK solution to place '{action.obj}' on '{region.name}'")
                 continue
-            place_conf = solution_conf(solution)
             self.sim.attach(state.held, state.held_yaw_offset)
-            lower = reach_waypoints(self.sim, stand, hand, solution, raise_by=PLACE_CLEARANCE)
-            hits = self.arm_motion_free(stand, lower, set())
+            hits = self.arm_motion_free(stand, motion.into, set())
             if hits:
                 failures.add("arm_collision", f"placing '{action.obj}' collides", self.names(hits))
                 continue
             self.sim.attach(None)
             self.sim.place_object(action.obj, placement)
-            retreat = leave_waypoints(self.sim, stand, hand, solution, backoff=APPROACH_DISTANCE)
-            hits = self.arm_motion_free(stand, retreat, {body})
+            hits = self.arm_motion_free(stand, motion.out, {body})
             if hits:
                 failures.add(
                     "arm_collision", f"retreating from '{action.obj}' collides", self.names(hits)
@@ -264,22 +248,15 @@ class Samplers:
             return PlaceParams(
                 base_path=path,
                 placement=placement,
-                place_conf=place_conf,
-                arm_waypoints=(*lower, *retreat[1:]),
+                place_conf=motion.key_conf,
+                arm_waypoints=motion.waypoints,
             )
         return failures.result(f"no placement of '{action.obj}' found")
 
     # ------------------------------------------------------------------ OPEN
     def handle_target(self, door_name: str, stand: tuple[float, float, float]) -> Pose3:
         """The door's fixed handle grasp on the robot's side: horizontal, facing the panel."""
-        door = self.problem.door(door_name)
-        su, sv = se2_to_local((*door.hinge, door.closed_yaw), stand[0], stand[1])
-        side = 1.0 if sv > 0 else -1.0
-        reach = door.thickness / 2 + 0.05 - 0.015
-        x, y = se2_to_world((*door.hinge, door.closed_yaw), door.handle_distance, side * reach)
-        approach = wrap_angle(door.closed_yaw - side * math.pi / 2)
-        del su
-        return (x, y, door.handle_height), quat_from_matrix(gripper_rotation(approach, 0.0))
+        return handle_target(self.problem.door(door_name), stand)
 
     def open(
         self, state: State, action: Open, rng: np.random.Generator
@@ -296,23 +273,11 @@ class Samplers:
             for _ in range(self.settings.open_tries):
                 self.sim.set_state(state)
                 self.sim.set_base_only(stand)
-                solution = solve_ik(
-                    self.sim,
-                    stand,
-                    self.handle_target(action.door, stand),
-                    rng,
-                    self.settings.ik_attempts * 3,
-                )
-                if solution is None:
+                motion = self.hands.open(action.door, stand, rng, self.settings.ik_attempts)
+                if motion is None:
                     failures.add("no_ik", f"no IK solution to the handle of '{action.door}'")
                     continue
-                handle_conf = (solution.lift, *solution.arm)
-                reach = [
-                    *robot_model.unfold(handle_conf),
-                    handle_conf,
-                    *robot_model.fold(handle_conf),
-                ]
-                hits = self.arm_motion_free(stand, reach, {door_body})
+                hits = self.arm_motion_free(stand, motion.waypoints, {door_body})
                 if hits:
                     failures.add(
                         "arm_collision",
@@ -331,8 +296,8 @@ class Samplers:
                     continue
                 return OpenParams(
                     base_path=path,
-                    handle_conf=handle_conf,
-                    arm_waypoints=tuple(reach),
+                    handle_conf=motion.key_conf,
+                    arm_waypoints=motion.waypoints,
                 )
         return failures.result(f"'{action.door}' could not be opened")
 

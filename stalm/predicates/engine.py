@@ -31,38 +31,19 @@ never reads occlusion literals, so nothing else needs them.
 
 from __future__ import annotations
 
-import hashlib
-import math
 from dataclasses import dataclass, field, replace
+from typing import Protocol
 
-import numpy as np
-
-from stalm.domain.actions import RELATIVE_DIRECTIONS, DiscreteAction, Pick, Place
-from stalm.geometry.transforms import Pose3, compose, invert, quat_yaw, wrap_angle, yaw_quat
-from stalm.motion.arm_motion import interpolate_waypoints
-from stalm.motion.base_motion import BasePath, BasePlanner
-from stalm.motion.grasps import (
-    APPROACH_DISTANCE,
-    LIFT_DISTANCE,
-    PITCH_RANGE,
-    PLACE_CLEARANCE,
-    YAW_RANGE,
-    draw_placement,
-    gripper_target,
-    nearest_grasp_point,
-    sample_grasp_angles,
-)
-from stalm.motion.ik import IKSolution, solve_ik
-from stalm.motion.reach import leave_waypoints, reach_waypoints
+from stalm.geometry.directions import RELATIVE_DIRECTIONS
+from stalm.motion.base_motion import BasePlanner
+from stalm.motion.manipulation import PARKED
+from stalm.motion.sweeps import ArmSegment, ObjectAt, SweptMotion, sweep_near
 from stalm.predicates.literals import GroundLiteral
-from stalm.predicates.sweeps import (
-    ArmSegment,
-    ObjectAt,
-    Segment,
-    SweptMotion,
-    base_segment,
-    sweep,
-    sweep_near,
+from stalm.predicates.samples import (
+    MotionSamples,
+    PickRecord,
+    PlacementSample,
+    PredicateSettings,
 )
 from stalm.world.problem import Problem
 from stalm.world.relations import direction_between, supporting_region
@@ -70,39 +51,15 @@ from stalm.world.scene import Sim
 from stalm.world.spec import RegionSpec
 from stalm.world.state import Grasp, ObjectPose, State
 
-PARKED = ObjectPose(0.0, 0.0, -20.0, 0.0)
-"""Where the held object's body waits while predicates are computed (far below the floor)."""
 
+class ActionTuple(Protocol):
+    """What the engine needs of a discrete action: its operator and arguments, as a tuple
+    (``("pick", obj)``, ``("place", obj, dir, ref)``, ``("open", door)``).
 
-@dataclass(frozen=True)
-class PredicateSettings:
-    """Sample counts per action; the authors checked 12 samples per predicate."""
+    The actions themselves live in :mod:`stalm.domain`, a sibling layer predicates may not
+    import (``pyproject.toml``'s import contract); every discrete action has ``as_tuple``."""
 
-    pick_samples: int = 12
-    placements_per_region: int = 8
-    placement_draws: int = 24
-    targeted_draws: int = 41
-    targeted_samples: int = 1
-    ik_attempts: int = 4
-    seed: int = 0
-
-
-@dataclass(frozen=True)
-class PlacementSample:
-    pose: ObjectPose
-    motion: SweptMotion
-
-
-@dataclass(frozen=True)
-class PickRecord:
-    """The sampled picks of one resting object: the statically feasible motions, and the grasp
-    that placements of the object use (the first feasible one; None if it is unreachable)."""
-
-    pose: ObjectPose
-    region: str
-    grasp: Grasp | None
-    yaw_offset: float
-    motions: tuple[SweptMotion, ...]
+    def as_tuple(self) -> tuple[str, ...]: ...
 
 
 @dataclass
@@ -118,11 +75,6 @@ class PredicateCache:
     grasps: dict[str, tuple[Grasp, float]] = field(default_factory=dict)
     unreachable: set[str] = field(default_factory=set)
     swept_motions: int = 0
-
-
-def _stable_seed(*parts: object) -> int:
-    digest = hashlib.sha256(repr(parts).encode()).digest()
-    return int.from_bytes(digest[:8], "little")
 
 
 class PredicateEngine:
@@ -148,14 +100,8 @@ class PredicateEngine:
         self.sim = sim
         self.base_planner = base_planner
         self.settings = settings or PredicateSettings()
-        self._all_open = frozenset(d.name for d in self.spec.doors)
-        self._static = frozenset(sim.bodies.walls.values()) | frozenset(sim.bodies.regions.values())
-        self._extent = {
-            o.name: math.hypot(o.half_extents[0], o.half_extents[1]) for o in self.spec.objects
-        }
-        self._names = {b: n for n, b in sim.bodies.objects.items()} | {
-            b: n for n, b in sim.bodies.doors.items()
-        }
+        self.samples = MotionSamples(self.spec, sim, base_planner, self.settings)
+        self._extent = self.samples.hands.extent
 
     # ------------------------------------------------------------------ public
     def compute(self, state: State) -> PredicateCache:
@@ -165,9 +111,9 @@ class PredicateEngine:
         cache = PredicateCache(state=state, literals=frozenset())
         self._prepare_world(state)
         for region in self.spec.regions:
-            cache.base[region.name] = self._base_motion(region)
+            cache.base[region.name] = self.samples.base_motion(region)
         for name, pose in state.poses:
-            cache.picks[name] = self._pick_record(name, pose)
+            cache.picks[name] = self.samples.pick_record(name, pose)
         self._refresh_grasps(cache)
         for obj in cache.grasps:
             for region in self.spec.regions:
@@ -175,8 +121,9 @@ class PredicateEngine:
         cache.literals = self._derive(cache)
         return cache
 
-    def update(self, cache: PredicateCache, action: DiscreteAction, state: State) -> PredicateCache:
-        """The literals of ``state``, reached from ``cache.state`` by the feasible ``action``."""
+    def update(self, cache: PredicateCache, action: ActionTuple, state: State) -> PredicateCache:
+        """The literals of ``state``, reached from ``cache.state`` by the feasible ``action``
+        (a discrete action of :mod:`stalm.domain.actions`)."""
         if not self.occlusion:
             return PredicateCache(state=state, literals=self._symbolic(state))
         new = PredicateCache(
@@ -188,18 +135,21 @@ class PredicateEngine:
             targeted=dict(cache.targeted),
         )
         self._prepare_world(state)
-        if isinstance(action, Pick):
-            new.picks.pop(action.obj, None)
-            self._forget_object(new, action.obj)
+        operator, *arguments = action.as_tuple()
+        if operator == "pick":
+            obj = arguments[0]
+            new.picks.pop(obj, None)
+            self._forget_object(new, obj)
             self._refresh_grasps(new)
-            self._resample_placements_of(new, action.obj)
-        elif isinstance(action, Place):
-            self._forget_object(new, action.obj)
-            self._resweep_near(new, action.obj, state.pose(action.obj))
-            new.picks[action.obj] = self._pick_record(action.obj, state.pose(action.obj))
+            self._resample_placements_of(new, obj)
+        elif operator == "place":
+            obj = arguments[0]
+            self._forget_object(new, obj)
+            self._resweep_near(new, obj, state.pose(obj))
+            new.picks[obj] = self.samples.pick_record(obj, state.pose(obj))
             self._refresh_grasps(new)
-            self._resample_placements_of(new, action.obj)
-            new.targeted = {k: v for k, v in new.targeted.items() if k[2] != action.obj}
+            self._resample_placements_of(new, obj)
+            new.targeted = {k: v for k, v in new.targeted.items() if k[2] != obj}
         else:
             # an open door is no obstacle: the derivation below stops counting it
             self._refresh_grasps(new)
@@ -215,89 +165,11 @@ class PredicateEngine:
             self.sim.attach(None)
             self.sim.place_object(state.held.obj, PARKED)
 
-    def _sweep(self, segments: tuple[Segment, ...]) -> SweptMotion | None:
-        """Sweep; None if the motion hits the static scene (no moving of objects frees it)."""
-        bodies, fan = sweep(self.sim, segments)
-        if bodies & self._static:
-            return None
-        held = next((s.held for s in segments if isinstance(s, ArmSegment) and s.held), None)
-        reach = self._extent[held.obj] + math.dist((0, 0, 0), held.position) if held else 0.0
-        names = frozenset(self._names[b] for b in bodies if b in self._names)
-        return SweptMotion(segments, names, fan, reach)
-
     def _obstacles(self, state: State) -> frozenset[str]:
         closed = frozenset(d.name for d in self.spec.doors if not state.is_open(d.name))
         return frozenset(name for name, _ in state.poses) | closed
 
-    # ------------------------------------------------------------------ motions
-    def _base_motion(self, region: RegionSpec) -> SweptMotion:
-        start = self.spec.robot.base
-        nodes = self.base_planner.route(start, region.base_pose, self._all_open)
-        if nodes is None:
-            corners: tuple[tuple[float, float, float], ...] = (start, region.base_pose)
-        else:
-            roadmap = self.base_planner.roadmap(self._all_open)
-            inner = tuple(
-                (float(roadmap.nodes[n][0]), float(roadmap.nodes[n][1]), start[2])
-                for n in nodes[1:-1]
-            )
-            corners = (start, *inner, region.base_pose)
-        segment = base_segment(BasePath(corners), self.base_planner.resolution)
-        bodies, _ = sweep(self.sim, (segment,))
-        return SweptMotion(
-            (segment,), frozenset(self._names[b] for b in bodies if b in self._names)
-        )
-
-    def _ik(
-        self, stand: tuple[float, float, float], target: Pose3, rng: np.random.Generator
-    ) -> IKSolution | None:
-        self.sim.attach(None)
-        return solve_ik(self.sim, stand, target, rng, self.settings.ik_attempts)
-
-    def _pick_record(self, obj: str, pose: ObjectPose) -> PickRecord:
-        region_name = supporting_region(self.spec, pose)
-        assert region_name is not None, f"'{obj}' rests on no region"
-        region = self.spec.region(region_name)
-        stand = region.base_pose
-        spec = self.spec.object(obj)
-        point = nearest_grasp_point(spec, pose, stand)
-        rng = np.random.default_rng(_stable_seed(self.settings.seed, "pick", obj))
-        motions: list[SweptMotion] = []
-        grasp: Grasp | None = None
-        object_pose = ((pose.x, pose.y, pose.z), yaw_quat(pose.yaw))
-        for _ in range(self.settings.pick_samples):
-            pitch, yaw = sample_grasp_angles(rng, PITCH_RANGE, YAW_RANGE)
-            target = gripper_target(point, stand[2], pitch, yaw)
-            solution = self._ik(stand, target, rng)
-            if solution is None:
-                continue
-            this_grasp = Grasp.make(obj, *compose(invert(target), object_pose))
-            segments: tuple[Segment, ...] = (
-                ArmSegment(
-                    stand,
-                    _dense(reach_waypoints(self.sim, stand, target, solution, APPROACH_DISTANCE)),
-                    None,
-                    obj,
-                ),
-                ArmSegment(
-                    stand,
-                    _dense(
-                        leave_waypoints(self.sim, stand, target, solution, raise_by=LIFT_DISTANCE)
-                    ),
-                    this_grasp,
-                    None,
-                ),
-            )
-            self.sim.place_object(obj, pose)
-            motion = self._sweep(segments)
-            self.sim.place_object(obj, pose)
-            if motion is None:
-                continue
-            motions.append(replace(motion, hits=motion.hits - {obj}))
-            if grasp is None:
-                grasp = this_grasp
-        return PickRecord(pose, region_name, grasp, wrap_angle(pose.yaw - stand[2]), tuple(motions))
-
+    # ------------------------------------------------------------------ samples
     def _refresh_grasps(self, cache: PredicateCache) -> None:
         """The grasp each object's placements use: the one in hand, or its first feasible pick."""
         cache.grasps = {}
@@ -308,83 +180,22 @@ class PredicateEngine:
             if record.grasp is not None:
                 cache.grasps[obj] = (record.grasp, record.yaw_offset)
 
-    def _placement_motion(
-        self, obj: str, grasp: Grasp, region: RegionSpec, pose: ObjectPose, rng: np.random.Generator
-    ) -> PlacementSample | None:
-        stand = region.base_pose
-        hand = compose(((pose.x, pose.y, pose.z), yaw_quat(pose.yaw)), invert(grasp.pose))
-        solution = self._ik(stand, hand, rng)
-        if solution is None:
-            return None
-        original = self.sim.object_pose(obj)
-        segments: tuple[Segment, ...] = (
-            ArmSegment(
-                stand,
-                _dense(reach_waypoints(self.sim, stand, hand, solution, raise_by=PLACE_CLEARANCE)),
-                grasp,
-                None,
-            ),
-            ObjectAt(obj, pose),
-            ArmSegment(
-                stand,
-                _dense(leave_waypoints(self.sim, stand, hand, solution, backoff=APPROACH_DISTANCE)),
-                None,
-                obj,
-            ),
-        )
-        motion = self._sweep(segments)
-        self.sim.place_object(obj, _pose_of(original))
-        if motion is None:
-            return None
-        return PlacementSample(pose, replace(motion, hits=motion.hits - {obj}))
-
     def _placements(
         self, cache: PredicateCache, obj: str, region: RegionSpec
     ) -> tuple[PlacementSample, ...]:
         grasp, offset = cache.grasps[obj]
-        yaw = wrap_angle(region.base_pose[2] + offset)
-        spec = self.spec.object(obj)
-        rng = np.random.default_rng(
-            _stable_seed(self.settings.seed, "place", obj, region.name, grasp)
-        )
-        samples: list[PlacementSample] = []
-        for _ in range(self.settings.placement_draws):
-            if len(samples) >= self.settings.placements_per_region:
-                break
-            pose = draw_placement(spec, region, yaw, rng)
-            if pose is None:
-                break
-            sample = self._placement_motion(obj, grasp, region, pose, rng)
-            if sample is not None:
-                samples.append(sample)
-        return tuple(samples)
+        return self.samples.placements(obj, grasp, offset, region)
 
     def _targeted(
         self, cache: PredicateCache, obj: str, direction: str, ref: str, region: RegionSpec
     ) -> tuple[PlacementSample, ...]:
+        """Placements in ``direction`` of ``ref``, sampled once per state the key holds in."""
         key = (obj, direction, ref)
-        if key in cache.targeted:
-            return cache.targeted[key]
-        grasp, offset = cache.grasps[obj]
-        yaw = wrap_angle(region.base_pose[2] + offset)
-        spec = self.spec.object(obj)
-        ref_pose = cache.state.pose(ref)
-        rng = np.random.default_rng(
-            _stable_seed(self.settings.seed, "target", obj, direction, ref, grasp, ref_pose)
-        )
-        samples: list[PlacementSample] = []
-        for _ in range(self.settings.targeted_draws):
-            if len(samples) >= self.settings.targeted_samples:
-                break
-            pose = draw_placement(spec, region, yaw, rng)
-            if pose is None:
-                break
-            if direction_between(region, pose, ref_pose) != direction:
-                continue
-            sample = self._placement_motion(obj, grasp, region, pose, rng)
-            if sample is not None:
-                samples.append(sample)
-        cache.targeted[key] = tuple(samples)
+        if key not in cache.targeted:
+            grasp, offset = cache.grasps[obj]
+            cache.targeted[key] = self.samples.targeted(
+                obj, grasp, offset, direction, ref, cache.state.pose(ref), region
+            )
         return cache.targeted[key]
 
     # ------------------------------------------------------------------ updates
@@ -555,12 +366,3 @@ def _fewest(sets: object) -> frozenset[str] | None:
             if not best:
                 break
     return best
-
-
-def _dense(waypoints: list[tuple[float, ...]]) -> tuple[tuple[float, ...], ...]:
-    return tuple(interpolate_waypoints(waypoints))
-
-
-def _pose_of(pose3: Pose3) -> ObjectPose:
-    (x, y, z), orn = pose3
-    return ObjectPose.make(x, y, z, quat_yaw(orn))

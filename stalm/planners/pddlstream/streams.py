@@ -15,7 +15,7 @@ PDDLStream's vocabulary for this domain:
   standing at p2) and ``Crosses(m, d)`` (they pass door d's closed panel).
 
 Motions are planned *ignoring movable objects* and then swept against each object at each
-pose, as the occlusion predicates do (:mod:`stalm.predicates.sweeps`); this is PDDLStream's
+pose, as the occlusion predicates do (:mod:`stalm.motion.sweeps`); this is PDDLStream's
 "plan the motion ignoring fluents, certify collisions with test streams". The base route to a
 standing pose is the roadmap route from the robot's initial pose with every door open (the
 predicate engine's convention); the real base path is planned when the action is executed.
@@ -32,42 +32,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from stalm.domain.mdp import Domain
-from stalm.domain.samplers import CARRY_CONF
-from stalm.geometry.transforms import (
-    Pose3,
-    compose,
-    invert,
-    se2_to_world,
-    wrap_angle,
-    yaw_quat,
-)
-from stalm.motion.arm_motion import interpolate_waypoints
-from stalm.motion.base_motion import BasePath
+from stalm.geometry.transforms import compose, invert, se2_to_world, wrap_angle, yaw_quat
 from stalm.motion.grasps import (
-    APPROACH_DISTANCE,
-    LIFT_DISTANCE,
-    PLACE_CLEARANCE,
     draw_placement,
     grasp_points,
     gripper_target,
     placement_bounds,
     sample_grasp_angles,
 )
-from stalm.motion.ik import solve_ik
-from stalm.motion.reach import leave_waypoints, reach_waypoints, solution_conf
-from stalm.planners.pddlstream.values import GraspValue, MotionValue, PoseValue
-from stalm.predicates.engine import PARKED
-from stalm.predicates.sweeps import (
-    ArmSegment,
-    ObjectAt,
-    Segment,
-    SweptMotion,
-    base_segment,
-    sweep,
-    sweep_near,
+from stalm.motion.manipulation import (
+    PARKED,
+    ArmMotion,
+    Manipulator,
+    placing_hand,
+    route_segment,
 )
-from stalm.world import robot as robot_model
+from stalm.motion.sweeps import Segment, SweptMotion, sweep, sweep_near
+from stalm.planners.pddlstream.values import GraspValue, MotionValue, PoseValue
 from stalm.world.relations import direction_between, supporting_region
+from stalm.world.robot import CARRY_CONF
 from stalm.world.state import Grasp, ObjectPose, RobotConf
 
 SE2 = tuple[float, float, float]
@@ -83,14 +66,6 @@ class Route:
     crosses: frozenset[str]
 
 
-def _pose3(pose: ObjectPose) -> Pose3:
-    return ((pose.x, pose.y, pose.z), yaw_quat(pose.yaw))
-
-
-def _dense(waypoints: list[tuple[float, ...]]) -> tuple[tuple[float, ...], ...]:
-    return tuple(interpolate_waypoints(waypoints))
-
-
 class StreamGeometry:
     """The streams' samplers and tests on one domain's simulator (which they reconfigure)."""
 
@@ -103,13 +78,9 @@ class StreamGeometry:
         self.start = self.spec.robot.base
         self._routes: dict[SE2, Route] = {}
         self._route_hits: dict[tuple[SE2, str, ObjectPose], bool] = {}
-        self._static = frozenset(self.sim.bodies.walls.values()) | frozenset(
-            self.sim.bodies.regions.values()
-        )
+        self.hands = Manipulator(self.sim)
         self._door_of_body = {body: name for name, body in self.sim.bodies.doors.items()}
-        self._extent = {
-            o.name: math.hypot(o.half_extents[0], o.half_extents[1]) for o in self.spec.objects
-        }
+        self._extent = self.hands.extent
         initial = self.problem.initial_state
         self._yaw_offset: dict[str, float] = {}
         for obj in self.spec.objects:
@@ -135,13 +106,32 @@ class StreamGeometry:
     ) -> tuple[SweptMotion, frozenset[str]] | None:
         """Sweep ``segments`` in the cleared world: None if they touch the static scene, else
         the swept motion and the doors it passes (``own``, the door being opened, excepted)."""
-        bodies, fan = sweep(self.sim, segments)
-        if bodies & self._static:
+        swept = self.hands.sweep(segments)
+        if swept is None:
             return None
+        motion, bodies = swept
         doors = frozenset(self._door_of_body[b] for b in bodies if b in self._door_of_body)
-        held = next((s.held for s in segments if isinstance(s, ArmSegment) and s.held), None)
-        reach = self._extent[held.obj] + math.dist((0, 0, 0), held.position) if held else 0.0
-        return SweptMotion(segments, frozenset(), fan, reach), doors - {own}
+        return motion, doors - {own}
+
+    def _value(
+        self,
+        kind: str,
+        subject: str,
+        arm: ArmMotion,
+        swept: tuple[SweptMotion, frozenset[str]],
+        names: tuple[str | None, str | None] = (None, None),
+    ) -> MotionValue:
+        return MotionValue(
+            kind,
+            subject,
+            arm.stand,
+            swept[0],
+            arm.waypoints,
+            arm.key_conf,
+            swept[1] | self.route(arm.stand).crosses,
+            pose=names[0],
+            grasp=names[1],
+        )
 
     def yaw_offset(self, obj: str) -> float:
         """The object's yaw relative to the standing pose it is seen from (PLACE keeps it)."""
@@ -211,30 +201,14 @@ class StreamGeometry:
         target = gripper_target(
             (wx, wy, pose.pose.z + grasp.point[2]), stand[2], grasp.pitch, grasp.yaw
         )
-        solution = solve_ik(self.sim, stand, target, rng, self.settings.ik_attempts)
-        if solution is None:
+        arm = self.hands.pick(stand, target, rng, self.settings.ik_attempts)
+        if arm is None:
             return None
-        approach = reach_waypoints(self.sim, stand, target, solution, backoff=APPROACH_DISTANCE)
-        lift = leave_waypoints(self.sim, stand, target, solution, raise_by=LIFT_DISTANCE)
-        segments: tuple[Segment, ...] = (
-            ArmSegment(stand, _dense(approach), None, obj),
-            ArmSegment(stand, _dense(lift), grasp.grasp, None),
-        )
         self.sim.place_object(obj, pose.pose)
-        swept = self._motion_from(segments)
+        swept = self._motion_from(arm.pick_segments(obj, grasp.grasp))
         if swept is None:
             return None
-        return MotionValue(
-            "pick",
-            obj,
-            stand,
-            swept[0],
-            (*approach, *lift[1:]),
-            solution_conf(solution),
-            swept[1] | self.route(stand).crosses,
-            pose=names[0],
-            grasp=names[1],
-        )
+        return self._value("pick", obj, arm, swept, names)
 
     def plan_place(
         self, pose: PoseValue, grasp: GraspValue, names: tuple[str, str], rng: np.random.Generator
@@ -243,33 +217,14 @@ class StreamGeometry:
         obj = pose.obj
         stand = self.spec.region(pose.region).base_pose
         self._clear(stand)
-        hand = compose(_pose3(pose.pose), invert(grasp.grasp.pose))
-        solution = solve_ik(self.sim, stand, hand, rng, self.settings.ik_attempts)
-        if solution is None:
+        hand = placing_hand(pose.pose, grasp.grasp)
+        arm = self.hands.place(stand, hand, rng, self.settings.ik_attempts)
+        if arm is None:
             return None
-        self.sim.attach(grasp.grasp)
-        lower = reach_waypoints(self.sim, stand, hand, solution, raise_by=PLACE_CLEARANCE)
-        self.sim.attach(None)
-        retreat = leave_waypoints(self.sim, stand, hand, solution, backoff=APPROACH_DISTANCE)
-        segments: tuple[Segment, ...] = (
-            ArmSegment(stand, _dense(lower), grasp.grasp, None),
-            ObjectAt(obj, pose.pose),
-            ArmSegment(stand, _dense(retreat), None, obj),
-        )
-        swept = self._motion_from(segments)
+        swept = self._motion_from(arm.place_segments(obj, grasp.grasp, pose.pose))
         if swept is None:
             return None
-        return MotionValue(
-            "place",
-            obj,
-            stand,
-            swept[0],
-            (*lower, *retreat[1:]),
-            solution_conf(solution),
-            swept[1] | self.route(stand).crosses,
-            pose=names[0],
-            grasp=names[1],
-        )
+        return self._value("place", obj, arm, swept, names)
 
     def plan_open(self, door: str, rng: np.random.Generator) -> MotionValue | None:
         """OPEN's handle motion from the first standing pose (nearest the robot's start) at
@@ -278,30 +233,13 @@ class StreamGeometry:
         stands = sorted(spec.base_poses, key=lambda s: math.dist(s[:2], self.start[:2]))
         for stand in stands:
             self._clear(stand)
-            solution = solve_ik(
-                self.sim,
-                stand,
-                self.domain.samplers.handle_target(door, stand),
-                rng,
-                self.settings.ik_attempts * 3,
-            )
-            if solution is None:
+            arm = self.hands.open(door, stand, rng, self.settings.ik_attempts)
+            if arm is None:
                 continue
-            handle = solution_conf(solution)
-            reach = [*robot_model.unfold(handle), handle, *robot_model.fold(handle)]
-            segments: tuple[Segment, ...] = (ArmSegment(stand, _dense(reach), None, None),)
-            swept = self._motion_from(segments, own=door)
+            swept = self._motion_from(arm.open_segments(), own=door)
             if swept is None:
                 continue
-            return MotionValue(
-                "open",
-                door,
-                stand,
-                swept[0],
-                tuple(reach),
-                handle,
-                swept[1] | self.route(stand).crosses,
-            )
+            return self._value("open", door, arm, swept)
         return None
 
     # ------------------------------------------------------------------ tests
@@ -310,17 +248,7 @@ class StreamGeometry:
         doors whose closed panels it passes (computed once per standing pose)."""
         if stand not in self._routes:
             every_door = frozenset(d.name for d in self.spec.doors)
-            planner = self.domain.base_planner
-            nodes = planner.route(self.start, stand, every_door)
-            corners: tuple[SE2, ...] = (self.start, stand)
-            if nodes is not None:
-                roadmap = planner.roadmap(every_door)
-                inner = tuple(
-                    (float(roadmap.nodes[n][0]), float(roadmap.nodes[n][1]), self.start[2])
-                    for n in nodes[1:-1]
-                )
-                corners = (self.start, *inner, stand)
-            segment = base_segment(BasePath(corners), planner.resolution)
+            segment = route_segment(self.domain.base_planner, self.start, stand, every_door)
             self._clear(self.start)
             bodies, _ = sweep(self.sim, (segment,))
             doors = frozenset(self._door_of_body[b] for b in bodies if b in self._door_of_body)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from stalm.predicates.sweeps import SweptMotion
+from stalm.motion.sweeps import SweptMotion
 from stalm.world.state import Grasp, ObjectPose
 
 Conf = tuple[float, ...]

@@ -1,0 +1,231 @@
+"""The sampled motions behind the occlusion literals, drawn as the operators draw them.
+
+An occlusion literal (paper §3.2) says which movables the motion of an action touches when
+the motion is planned ignoring them. This module samples those motions: the base route to each
+region, a fixed number of picks per resting object, placements per object and region, and
+placements targeted at one relative position. The motions themselves are built by
+:class:`~stalm.motion.manipulation.Manipulator`, as PICK's and PLACE's samplers build them.
+
+Each action's draws come from a generator seeded by the action's own key
+(:func:`stable_seed`), so what is sampled for one action does not depend on what else was
+computed before. The literals, and which samples are drawn again when the state changes, are
+:class:`~stalm.predicates.engine.PredicateEngine`'s.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from stalm.geometry.transforms import Pose3, compose, invert, quat_yaw, wrap_angle, yaw_quat
+from stalm.motion.base_motion import BasePlanner
+from stalm.motion.grasps import (
+    PITCH_RANGE,
+    YAW_RANGE,
+    draw_placement,
+    gripper_target,
+    nearest_grasp_point,
+    sample_grasp_angles,
+)
+from stalm.motion.manipulation import Manipulator, placing_hand, route_segment
+from stalm.motion.sweeps import Segment, SweptMotion, sweep
+from stalm.world.relations import direction_between, supporting_region
+from stalm.world.scene import Sim
+from stalm.world.spec import ProblemSpec, RegionSpec
+from stalm.world.state import Grasp, ObjectPose
+
+
+@dataclass(frozen=True)
+class PredicateSettings:
+    """Sample counts per action; the authors checked 12 samples per predicate."""
+
+    pick_samples: int = 12
+    placements_per_region: int = 8
+    placement_draws: int = 24
+    targeted_draws: int = 41
+    targeted_samples: int = 1
+    ik_attempts: int = 4
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class PlacementSample:
+    pose: ObjectPose
+    motion: SweptMotion
+
+
+@dataclass(frozen=True)
+class PickRecord:
+    """The sampled picks of one resting object: the statically feasible motions, and the grasp
+    that placements of the object use (the first feasible one; None if it is unreachable)."""
+
+    pose: ObjectPose
+    region: str
+    grasp: Grasp | None
+    yaw_offset: float
+    motions: tuple[SweptMotion, ...]
+
+
+def stable_seed(*parts: object) -> int:
+    """A seed from an action's key, the same in every process (``hash`` is salted)."""
+    digest = hashlib.sha256(repr(parts).encode()).digest()
+    return int.from_bytes(digest[:8], "little")
+
+
+class MotionSamples:
+    """Samples the motions of one problem's actions in its simulator (which it moves).
+
+    The caller sets the world: every sample is swept against the objects standing where the
+    simulator has them, and each motion records the movables and doors it touched.
+    """
+
+    def __init__(
+        self, spec: ProblemSpec, sim: Sim, base_planner: BasePlanner, settings: PredicateSettings
+    ) -> None:
+        self.spec = spec
+        self.sim = sim
+        self.base_planner = base_planner
+        self.settings = settings
+        self.hands = Manipulator(sim)
+        self._all_open = frozenset(d.name for d in spec.doors)
+        self._names = {b: n for n, b in sim.bodies.objects.items()} | {
+            b: n for n, b in sim.bodies.doors.items()
+        }
+
+    def _sweep(self, segments: tuple[Segment, ...]) -> SweptMotion | None:
+        """Sweep; None if the motion hits the static scene (no moving of objects frees it)."""
+        swept = self.hands.sweep(segments)
+        if swept is None:
+            return None
+        motion, bodies = swept
+        return replace(motion, hits=self.named(bodies))
+
+    def named(self, bodies: frozenset[int]) -> frozenset[str]:
+        """The movables and doors among ``bodies``, by name."""
+        return frozenset(self._names[b] for b in bodies if b in self._names)
+
+    def base_motion(self, region: RegionSpec) -> SweptMotion:
+        """The route from the initial robot pose to ``region``'s standing pose, doors open."""
+        segment = route_segment(
+            self.base_planner, self.spec.robot.base, region.base_pose, self._all_open
+        )
+        bodies, _ = sweep(self.sim, (segment,))
+        return SweptMotion((segment,), self.named(bodies))
+
+    def pick_record(self, obj: str, pose: ObjectPose) -> PickRecord:
+        """Up to ``pick_samples`` picks of ``obj`` resting at ``pose``."""
+        region_name = supporting_region(self.spec, pose)
+        assert region_name is not None, f"'{obj}' rests on no region"
+        region = self.spec.region(region_name)
+        stand = region.base_pose
+        spec = self.spec.object(obj)
+        point = nearest_grasp_point(spec, pose, stand)
+        rng = np.random.default_rng(stable_seed(self.settings.seed, "pick", obj))
+        motions: list[SweptMotion] = []
+        grasp: Grasp | None = None
+        object_pose = ((pose.x, pose.y, pose.z), yaw_quat(pose.yaw))
+        for _ in range(self.settings.pick_samples):
+            pitch, yaw = sample_grasp_angles(rng, PITCH_RANGE, YAW_RANGE)
+            target = gripper_target(point, stand[2], pitch, yaw)
+            arm = self.hands.pick(stand, target, rng, self.settings.ik_attempts)
+            if arm is None:
+                continue
+            this_grasp = Grasp.make(obj, *compose(invert(target), object_pose))
+            self.sim.place_object(obj, pose)
+            motion = self._sweep(arm.pick_segments(obj, this_grasp))
+            self.sim.place_object(obj, pose)
+            if motion is None:
+                continue
+            motions.append(replace(motion, hits=motion.hits - {obj}))
+            if grasp is None:
+                grasp = this_grasp
+        return PickRecord(pose, region_name, grasp, wrap_angle(pose.yaw - stand[2]), tuple(motions))
+
+    def placements(
+        self, obj: str, grasp: Grasp, offset: float, region: RegionSpec
+    ) -> tuple[PlacementSample, ...]:
+        """Up to ``placements_per_region`` placements of ``obj`` held at ``grasp`` on
+        ``region``, keeping the yaw ``offset`` from the standing pose."""
+        rng = np.random.default_rng(
+            stable_seed(self.settings.seed, "place", obj, region.name, grasp)
+        )
+        wanted, draws = self.settings.placements_per_region, self.settings.placement_draws
+        return self._draw(obj, grasp, offset, region, rng, wanted, draws)
+
+    def targeted(
+        self,
+        obj: str,
+        grasp: Grasp,
+        offset: float,
+        direction: str,
+        ref: str,
+        ref_pose: ObjectPose,
+        region: RegionSpec,
+    ) -> tuple[PlacementSample, ...]:
+        """Placements drawn until ``targeted_samples`` lie in ``direction`` of ``ref`` (at
+        ``ref_pose`` on ``region``): for a relative position no plain placement landed in."""
+        rng = np.random.default_rng(
+            stable_seed(self.settings.seed, "target", obj, direction, ref, grasp, ref_pose)
+        )
+        wanted, draws = self.settings.targeted_samples, self.settings.targeted_draws
+        return self._draw(
+            obj,
+            grasp,
+            offset,
+            region,
+            rng,
+            wanted,
+            draws,
+            lambda pose: direction_between(region, pose, ref_pose) == direction,
+        )
+
+    def _draw(
+        self,
+        obj: str,
+        grasp: Grasp,
+        offset: float,
+        region: RegionSpec,
+        rng: np.random.Generator,
+        wanted: int,
+        draws: int,
+        keep: Callable[[ObjectPose], bool] = lambda pose: True,
+    ) -> tuple[PlacementSample, ...]:
+        """Up to ``draws`` uniform placements, the ones ``keep`` accepts planned, until
+        ``wanted`` have feasible motions (or the object does not fit the region)."""
+        yaw = wrap_angle(region.base_pose[2] + offset)
+        spec = self.spec.object(obj)
+        samples: list[PlacementSample] = []
+        for _ in range(draws):
+            if len(samples) >= wanted:
+                break
+            pose = draw_placement(spec, region, yaw, rng)
+            if pose is None:
+                break
+            if not keep(pose):
+                continue
+            sample = self._placement_motion(obj, grasp, region, pose, rng)
+            if sample is not None:
+                samples.append(sample)
+        return tuple(samples)
+
+    def _placement_motion(
+        self, obj: str, grasp: Grasp, region: RegionSpec, pose: ObjectPose, rng: np.random.Generator
+    ) -> PlacementSample | None:
+        stand = region.base_pose
+        arm = self.hands.place(stand, placing_hand(pose, grasp), rng, self.settings.ik_attempts)
+        if arm is None:
+            return None
+        original = self.sim.object_pose(obj)
+        motion = self._sweep(arm.place_segments(obj, grasp, pose))
+        self.sim.place_object(obj, _pose_of(original))
+        if motion is None:
+            return None
+        return PlacementSample(pose, replace(motion, hits=motion.hits - {obj}))
+
+
+def _pose_of(pose3: Pose3) -> ObjectPose:
+    (x, y, z), orn = pose3
+    return ObjectPose.make(x, y, z, quat_yaw(orn))
