@@ -168,6 +168,7 @@ def test_benchmarks_run_and_print_their_tables(monkeypatch, capsys, tmp_path: Pa
     assert "simulations/s" in out and "13-step plan" in out
 
 
+@pytest.mark.slow
 def test_predicate_benchmark_checks_the_cache(
     monkeypatch, tmp_path: Path, two_bottle_p2: Path
 ) -> None:

@@ -149,6 +149,7 @@ def test_a_deadline_stops_sampling_and_cut_replies_are_not_cached(
     assert len(cache) == 3
 
 
+@pytest.mark.slow
 def test_whole_chunks_shared_with_the_last_prompt_are_reused_and_replies_do_not_change(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -393,6 +393,7 @@ def test_a_huge_reply_is_read_up_to_the_cap_and_says_so(p5_vocabulary: Vocabular
     assert parsed.reason is not None and f"first {MAX_REPLY_CHARS}" in parsed.reason
 
 
+@pytest.mark.slow
 def test_the_scan_itself_is_linear_beyond_the_cap(p5_vocabulary: Vocabulary) -> None:
     import time
 

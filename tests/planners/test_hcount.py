@@ -142,7 +142,7 @@ def _grill_picked_from_its_goal(domain, grill_on_goal):
     raise AssertionError("the grill could not be picked")
 
 
-@pytest.mark.parametrize("name", ["P5", "P6"])
+@pytest.mark.parametrize("name", ["P5", pytest.param("P6", marks=pytest.mark.slow)])
 def test_picking_the_grill_off_its_goal_costs_one(domain_factory, name) -> None:
     """Appendix C's +1: o_target (the grill the PICK acted on) sat in its goal.
 

@@ -110,6 +110,7 @@ def test_search_still_solves_after_the_plan_fails_at_step_k(problems) -> None:
     assert replay_plan(problem, problem.initial_state, list(result.plan)).reached_goal
 
 
+@pytest.mark.slow
 def test_same_seed_and_proposer_give_the_identical_plan(problems) -> None:
     # Two steps of the online loop are enough to repeat every seeded part: predicates, the
     # proposer, a failed Concretize (the plan lacks the OPEN) and 30 warm-started simulations
@@ -131,6 +132,7 @@ def test_plain_uct_runs_the_same_loop_without_a_model(problems) -> None:
     assert len(result.states) == len(result.plan) + 1
 
 
+@pytest.mark.slow
 def test_the_executed_childs_subtree_is_kept_between_steps_and_can_be_switched_off(
     problems,
 ) -> None:
