@@ -31,25 +31,17 @@ from typing import Any
 import pytest
 
 import stalm.llm.backends as backends
-from stalm.domain.actions import DiscreteAction, Open, Pick, Place
+from stalm.domain.actions import DiscreteAction
 from stalm.llm.prompt import PromptOptions
 from stalm.planners.registry import PlannerConfig, build_planner
 from stalm.world.problem import Problem, load_problem
 from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply
+from tests.planners.test_stalm import P2_PLAN
 
 GOLDEN = Path(__file__).parent / "data" / "planners_unchanged.json"
 
-P2_PLAN_WITHOUT_OPEN = (
-    Pick("bottle2"),
-    Place("bottle2", "on", "counter1"),
-    Pick("bottle3"),
-    Place("bottle3", "on", "counter1"),
-    Pick("salter"),
-    Place("salter", "right_of", "bottle1"),
-)
+P2_PLAN_WITHOUT_OPEN = P2_PLAN[1:]
 """The scripted reply by default: Concretize fails it at its first step (the door is shut)."""
-
-P2_PLAN = (Open("kitchen_door"), *P2_PLAN_WITHOUT_OPEN)
 
 REPLIES: dict[str, tuple[tuple[DiscreteAction, ...], ...]] = {
     "without_open": (P2_PLAN_WITHOUT_OPEN,),
