@@ -1,10 +1,10 @@
-"""The bookkeeping of one online trial, shared by the baselines that run their own loop.
+"""The bookkeeping of one online trial (kept by :class:`stalm.planners.online.OnlinePlanner`).
 
 Every online planner does the same things around its decisions: one wall-clock deadline for the
 whole trial, the executed actions and the states they lead to, wall time per phase, what the
 language model cost, the failure kinds of the task plans it offered, and at the end a replay of
 the executed plan in a fresh scene (a plan that fails there is a failure, never a success) turned
-into a :class:`PlanResult`. :class:`Episode` holds exactly that, so a baseline's module is only
+into a :class:`PlanResult`. :class:`Episode` holds exactly that, so a method's module is only
 its decision rule.
 """
 
@@ -12,32 +12,60 @@ from __future__ import annotations
 
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
-from stalm.domain.mdp import Domain, RewardSettings
+from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
 from stalm.planners.base import Counters, PhaseTimes, PlanResult
+from stalm.planners.predicate_memo import PredicateMemo
 from stalm.planners.proposers import Proposal
 from stalm.planners.replay import replay_plan
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.search.concretize import ConcretizeResult
 from stalm.search.failure_kinds import figure5_kinds
 from stalm.world.problem import Problem
-from stalm.world.scene import Sim
 from stalm.world.state import State
 
 
 @dataclass
 class PhaseClock:
-    """Seconds spent per phase so far (mutable: the loop adds to it)."""
+    """Seconds spent per phase so far (mutable: the loop adds to it).
+
+    Phases nest: LLM-MCTS asks its prior and Hcount computes predicates from inside the tree
+    search, and those seconds are the prior's and the predicates', not the search's. So a
+    block timed by :meth:`timed` is charged its wall time less what the blocks timed inside it
+    took.
+    """
 
     predicates: float = 0.0
     llm: float = 0.0
     concretize: float = 0.0
     tree: float = 0.0
     execution: float = 0.0
+    _inner: list[float] = field(default_factory=list, repr=False)
+    """Per running :meth:`timed` block: the seconds of the blocks timed inside it so far."""
+
+    @contextmanager
+    def timed(self, phase: str | None) -> Iterator[None]:
+        """Charge the block's wall time, less that of blocks timed inside it, to ``phase``.
+
+        ``None`` charges nothing: for time another record accounts for (a model query, whose
+        seconds :meth:`Episode.record_query` charges), taken out of the enclosing phase.
+        """
+        self._inner.append(0.0)
+        tick = time.monotonic()
+        try:
+            yield
+        finally:
+            elapsed = time.monotonic() - tick
+            inner = self._inner.pop()
+            if phase is not None:
+                setattr(self, phase, getattr(self, phase) + elapsed - inner)
+            if self._inner:
+                self._inner[-1] += elapsed
 
 
 @dataclass(frozen=True)
@@ -85,9 +113,8 @@ class Episode:
     prompt_tokens: int = 0
     completion_tokens: int = 0
     queries: list[QueryRecord] = field(default_factory=list)
-    _predicates: PredicateCache | None = None
-    _predicates_at: int = 0
-    """How many executed actions ``_predicates`` is up to date with."""
+    memo: PredicateMemo | None = None
+    """The trial's predicates by state (set by the first :meth:`predicates`)."""
 
     @staticmethod
     def begin(problem: Problem, time_budget_s: float | None) -> Episode:
@@ -110,24 +137,21 @@ class Episode:
             return "timeout"
         return None
 
-    def predicates(self, engine: PredicateEngine) -> PredicateCache:
+    def predicates(self, memo: PredicateMemo | PredicateEngine) -> PredicateCache:
         """The current state's predicates, timed as the 'predicates' phase.
 
         Computed from scratch once; after that brought forward through every action executed
         since the last call with Appendix A's cached update (equal to a full computation), so
-        a planner asking once per step pays only for what its actions changed.
+        a planner asking once per step pays only for what its actions changed. ``memo`` is
+        the trial's (:class:`PredicateMemo`, shared with whatever else needs predicates), or
+        an engine to keep a memo of this episode's own.
         """
-        tick = time.monotonic()
-        if self._predicates is None:
-            self._predicates = engine.compute(self.state)
-        else:
-            for index in range(self._predicates_at, len(self.executed)):
-                self._predicates = engine.update(
-                    self._predicates, self.executed[index].discrete, self.states[index + 1]
-                )
-        self._predicates_at = len(self.executed)
-        self.clock.predicates += time.monotonic() - tick
-        return self._predicates
+        if isinstance(memo, PredicateEngine):
+            if self.memo is None or self.memo.engine is not memo:
+                self.memo = PredicateMemo(memo, self.clock)
+            memo = self.memo
+        self.memo = memo
+        return memo.along(self.states, self.executed)
 
     def count_failures(self, concrete: ConcretizeResult) -> None:
         """Add the Figure 5 kinds of the task plans Concretize could not take to the goal.
@@ -138,9 +162,10 @@ class Episode:
         """
         if not concrete.failures:
             return
-        if self._predicates is None or self._predicates_at != len(self.executed):
+        current = self.memo.known(self.state) if self.memo is not None else None
+        if current is None:
             raise RuntimeError("count_failures needs the current state's predicates")
-        self.failures.update(figure5_kinds(concrete, self._predicates.literals))
+        self.failures.update(figure5_kinds(concrete, current.literals))
 
     def record_query(self, proposal: Proposal) -> None:
         """Add one language-model query's calls, tokens and seconds (its original seconds,
@@ -239,19 +264,3 @@ class Episode:
             "llm_seconds_now": round(sum(query.seconds for query in self.queries), 6),
             "truncated_plans": sum(query.truncated_plans for query in self.queries),
         }
-
-
-def run_episode(
-    problem: Problem,
-    time_budget_s: float | None,
-    run: Callable[[Domain, Episode], PlanResult],
-    rewards: RewardSettings | None = None,
-) -> PlanResult:
-    """Start a trial's clock and its own simulator, run ``run``, and always close the
-    simulator (one PyBullet client per trial). ``rewards``: R's constants (paper defaults)."""
-    episode = Episode.begin(problem, time_budget_s)
-    domain = Domain(problem, Sim(problem.spec), reward_settings=rewards or RewardSettings())
-    try:
-        return run(domain, episode)
-    finally:
-        domain.close()

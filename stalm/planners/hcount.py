@@ -26,6 +26,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from stalm.domain.actions import Open
+from stalm.planners.predicate_memo import PredicateMemo
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.predicates.literals import GroundLiteral
 from stalm.search import LeafValue
@@ -112,19 +113,21 @@ def hcount_value(
 class HcountLeafValue:
     """UCT-with-Hcount's leaf value: ``hcount_value`` of the leaf's predicates.
 
-    A leaf's predicates are derived from its parent's with :meth:`PredicateEngine.update`
-    along the edge the search took into it (equal to computing them from scratch, and several
-    times cheaper); only a state reached by no known edge, such as a search root, is computed
-    from scratch. Predicates are kept per state for the whole trial, since the
-    trees of later real steps revisit the states of earlier ones. The value also reads
-    ``arrival`` for o_target (:func:`target_term`). Deterministic: it never depends on the
-    generator.
+    A leaf's predicates come from the trial's :class:`PredicateMemo`, derived from its
+    parent's with :meth:`PredicateEngine.update` along the edge the search took into it
+    (equal to computing them from scratch, and several times cheaper); only a state reached
+    by no known edge, such as a search root, is computed from scratch. The memo keeps them for
+    the whole trial, since the trees of later real steps revisit the states of earlier ones.
+    The value also reads ``arrival`` for o_target (:func:`target_term`). Deterministic: it
+    never depends on the generator. ``computed_from_scratch`` and ``brought_forward`` count
+    the computations the leaves caused.
     """
 
-    def __init__(self, problem: Problem, engine: PredicateEngine) -> None:
+    def __init__(self, problem: Problem, predicates: PredicateMemo | PredicateEngine) -> None:
         self.problem = problem
-        self.engine = engine
-        self._predicates: dict[State, PredicateCache] = {}
+        self.memo = (
+            predicates if isinstance(predicates, PredicateMemo) else PredicateMemo(predicates)
+        )
         self.computed_from_scratch = 0
         self.brought_forward = 0
 
@@ -141,15 +144,10 @@ class HcountLeafValue:
 
     def predicates(self, state: State, arrival: Edge | None = None) -> PredicateCache:
         """The predicates of ``state``, from its parent's if ``arrival`` leads into it."""
-        known = self._predicates.get(state)
-        if known is not None:
-            return known
-        if arrival is None:
-            cache = self.engine.compute(state)
-            self.computed_from_scratch += 1
-        else:
-            parent = self.predicates(arrival.state)
-            cache = self.engine.update(parent, arrival.action, state)
-            self.brought_forward += 1
-        self._predicates[state] = cache
+        memo = self.memo
+        scratch, forward = memo.computed_from_scratch, memo.brought_forward
+        parent, action = (None, None) if arrival is None else (arrival.state, arrival.action)
+        cache = memo.of(state, parent, action)
+        self.computed_from_scratch += memo.computed_from_scratch - scratch
+        self.brought_forward += memo.brought_forward - forward
         return cache

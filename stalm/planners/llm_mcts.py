@@ -1,8 +1,9 @@
 """LLM-MCTS (Zhao et al., 2024), the baseline of §4.2–4.3: MCTS whose prior asks a model.
 
 Every node the search creates gets a prior from the model when it is created (the expansion
-step of PUCT-style MCTS): the state's predicates are computed from scratch, the paper's prompt
-for them is sent once for 5 replies, the first action of each parsed plan that is a legal
+step of PUCT-style MCTS): the state's predicates are taken from the trial's predicate memo
+(computed from scratch for a state the trial has not seen), the paper's prompt for them is
+sent once for 5 replies, the first action of each parsed plan that is a legal
 action counts as a vote, and votes/5 is mixed 0.5 with uniform (the authors' construction).
 PUCT (:mod:`stalm.search.puct`, c = 50) then weighs each legal action by that prior, from the
 node's first selection on. So the model is called once per *new node* -- up to one call per
@@ -10,10 +11,10 @@ simulation, N_budget = 35 calls per real step -- the defining cost of the method
 paper blames for its time-outs (§4.3); every call, its tokens and its seconds go into the
 result, with the number of calls of each real step. Priors are kept per state within one
 tree (a state reached twice in a tree is one node); each real step builds a new tree and asks
-again. Everything else is STaLM's hybrid search without warm start: UCT over κ with
-progressive widening, random rollouts at new leaves, executed online like
-:class:`~stalm.planners.stalm.StalmPlanner` (bookkeeping shared through
-:class:`~stalm.planners.episode.Episode`).
+again (``reuse_tree``, beyond the paper, keeps the executed child's subtree and its priors).
+Everything else is STaLM's hybrid search without warm start: UCT over κ with progressive
+widening, random rollouts at new leaves, run online by
+:class:`~stalm.planners.online.OnlinePlanner` as every online method is.
 
 Determinism: each state's request is seeded from the trial seed and a stable digest of the state
 (never Python's salted ``hash``), so the same seed replays the same cached replies and, with
@@ -26,17 +27,17 @@ import hashlib
 import json
 import time
 from collections.abc import Callable, Iterable
+from contextlib import nullcontext
 from dataclasses import asdict, dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
 from stalm.domain.actions import DiscreteAction
-from stalm.domain.mdp import Domain
-from stalm.planners.base import PlanResult
-from stalm.planners.episode import Episode, run_episode
+from stalm.planners.config import PlannerConfig, Progress, llm_backend, use_constraint
+from stalm.planners.online import Decision, OnlinePlanner, Trial
+from stalm.planners.predicate_memo import Timing
 from stalm.planners.proposers import LLMProposer, Proposal, TaskPlanProposer
-from stalm.planners.registry import PlannerConfig, llm_backend, use_constraint
-from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral
 from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
 from stalm.search.mdp import SearchMDP
@@ -46,7 +47,6 @@ from stalm.search.tree import Edge
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
-Progress = Callable[[str], None]
 LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
 QueryHook = Callable[[Proposal], None]
 
@@ -101,7 +101,9 @@ class LLMPrior:
     :meth:`new_tree`: the next real step's tree asks again for every node it makes, as
     LLM-MCTS pays a call for every new node.
 
-    ``on_query`` gets every query's :class:`Proposal` (the planner records it in the trial).
+    ``on_query`` gets every query's :class:`Proposal` (the planner records it in the trial,
+    which charges its seconds); ``timing`` keeps the query's wall time out of the phase
+    that asked (the tree search).
     The deadline is checked before each new query: once it has passed, the prior is uniform
     (and not kept) so the running simulation finishes quickly and the search returns; a
     query already under way is never cut off, so a trial can overrun its budget by at most one
@@ -121,6 +123,7 @@ class LLMPrior:
         deadline: float | None = None,
         progress: Progress | None = None,
         on_query: QueryHook | None = None,
+        timing: Timing | None = None,
     ) -> None:
         self.problem = problem
         self.proposer = proposer
@@ -131,6 +134,7 @@ class LLMPrior:
         self.deadline = deadline
         self.progress = progress
         self.on_query = on_query
+        self.timing = timing
         self._votes: dict[State, tuple[DiscreteAction, ...]] = {}
         self._stats = PriorStats()
 
@@ -176,9 +180,11 @@ class LLMPrior:
         predicate_seconds = time.monotonic() - tick
         tick = time.monotonic()
         seed = state_request_seed(self.trial_seed, state)
-        proposal = self.proposer.propose(
-            self.problem, state, literals, self.samples, seed, deadline=self.deadline
-        )
+        # the episode charges the query's seconds (on_query): none go to the enclosing phase
+        with self.timing.timed(None) if self.timing is not None else nullcontext():
+            proposal = self.proposer.propose(
+                self.problem, state, literals, self.samples, seed, deadline=self.deadline
+            )
         llm_seconds = time.monotonic() - tick
         if self.deadline is not None:
             self.deadline -= proposal.original_seconds - proposal.seconds
@@ -247,99 +253,98 @@ class LlmMctsSettings:
     uniform_weight: float = 0.5
     occlusion_predicates: bool = True
     """Compute occlusion literals for the prompt (False when the prompt does not show them)."""
+    reuse_tree: bool = False
+    """Keep the executed child's subtree, and its nodes' priors, as the next step's tree
+    (beyond the paper, through the online base as STaLM does). Off: LLM-MCTS as published,
+    a new tree every real step whose nodes ask the model anew."""
 
 
 @dataclass
-class LlmMctsPlanner:
+class LlmMctsPlanner(OnlinePlanner):
     """LLM-MCTS run online: search from the current state, execute, repeat."""
 
+    name = "llm-mcts"
     proposer: TaskPlanProposer
     settings: LlmMctsSettings = field(default_factory=LlmMctsSettings)
     progress: Progress | None = None
 
     @property
-    def name(self) -> str:
-        return "llm-mcts"
+    def occlusion(self) -> bool:
+        return self.settings.occlusion_predicates
 
-    def _say(self, message: str) -> None:
-        if self.progress is not None:
-            self.progress(message)
+    @property
+    def reuse_tree(self) -> bool:
+        return self.settings.reuse_tree
 
-    def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
-        return run_episode(problem, time_budget_s, lambda d, e: self._run(d, e, seed))
+    def start(self, trial: Trial) -> LlmMctsSteps:
+        return LlmMctsSteps(self, trial)
 
-    def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
-        problem = episode.problem
-        engine = PredicateEngine(
-            problem,
-            domain.sim,
-            domain.base_planner,
-            occlusion=self.settings.occlusion_predicates,
+
+class LlmMctsSteps:
+    """One trial's real steps: MCTS with the LLM prior from the current state, then execute
+    its goal plan or its best root action."""
+
+    def __init__(self, planner: LlmMctsPlanner, trial: Trial) -> None:
+        self.planner = planner
+        self.trial = trial
+        settings = planner.settings
+        self.prior = LLMPrior(
+            trial.problem,
+            planner.proposer,
+            self._literals,
+            trial_seed=trial.seed,
+            samples=settings.samples,
+            uniform_weight=settings.uniform_weight,
+            deadline=trial.episode.deadline,
+            progress=planner.progress,
+            on_query=trial.episode.record_query,
+            timing=trial.episode.clock,
         )
-        rng = np.random.default_rng(seed)
-        search = self.settings.search
-        prior = LLMPrior(
-            problem,
-            self.proposer,
-            lambda state: engine.compute(state).literals,
-            trial_seed=seed,
-            samples=self.settings.samples,
-            uniform_weight=self.settings.uniform_weight,
-            deadline=episode.deadline,
-            progress=self.progress,
-            on_query=episode.record_query,
-        )
-        policies = llm_mcts_policies(search, prior)
-        search_seconds = 0.0
-        simulations = replans = 0
-        calls_per_step: list[int] = []
-        while (termination := episode.stop_reason(domain)) is None:
-            replans += 1
-            self._say(f"step {len(episode.executed)}: MCTS with an LLM prior, {search.budget} sims")
+        self.policies = llm_mcts_policies(settings.search, self.prior)
+        self.calls_per_step: list[int] = []
+
+    def _literals(self, state: State) -> frozenset[GroundLiteral]:
+        """A node's literals, from the trial's predicate memo; the query that follows is
+        timed by the episode (its original seconds), not as tree search."""
+        return self.trial.memo.of(state).literals
+
+    def decide(self) -> Decision:
+        trial, prior, search = self.trial, self.prior, self.planner.settings.search
+        trial.replans += 1
+        trial.say(f"step {trial.done}: MCTS with an LLM prior, {search.budget} sims")
+        if not trial.reuse_tree:
             prior.new_tree()
-            prior.deadline = episode.deadline
-            calls_before = prior.stats.llm_calls
-            tick = time.monotonic()
+        prior.deadline = trial.episode.deadline
+        calls_before = prior.stats.llm_calls
+        with trial.phase("tree"):
             result = warm_started_uct(
-                domain,
-                episode.state,
+                trial.domain,
+                trial.state,
                 (),
-                rng,
+                trial.rng,
                 settings=search,
-                depth0=len(episode.executed),
-                deadline=episode.deadline,
-                policies=policies,
+                depth0=trial.done,
+                deadline=trial.episode.deadline,
+                policies=self.policies,
+                tree=trial.tree_at(trial.state) if trial.reuse_tree else None,
             )
-            search_seconds += time.monotonic() - tick
-            calls_per_step.append(prior.stats.llm_calls - calls_before)
-            simulations += result.counters.simulations
-            if result.goal_plan:
-                to_execute = result.goal_plan
-            elif result.best_action is not None:
-                to_execute = (result.best_action,)
-            else:
-                continue  # no feasible root action found: search again from the same state
-            for action in to_execute:
-                episode.execute(domain, action)
-                self._say(f"executed {action.discrete}")
+        self.calls_per_step.append(prior.stats.llm_calls - calls_before)
+        trial.simulations += result.counters.simulations
+        if result.goal_plan:
+            return result.goal_plan
+        if result.best_action is not None:
+            return (result.best_action,)
+        return ()  # no feasible root action found: search again from the same state
 
-        stats = prior.stats
-        episode.clock.predicates = stats.predicate_seconds
-        # the prior is asked from inside the search: its seconds are not tree-search seconds
-        episode.clock.tree = max(0.0, search_seconds - stats.llm_seconds - stats.predicate_seconds)
-        return episode.finish(
-            domain,
-            self.name,
-            seed,
-            termination,
-            simulations=simulations,
-            replans=replans,
-            details={
-                "proposer": self.proposer.name,
-                "prior": asdict(stats),
-                "llm_calls_per_step": calls_per_step,
-            },
-        )
+    def details(self) -> dict[str, Any]:
+        details: dict[str, Any] = {
+            "proposer": self.planner.proposer.name,
+            "prior": asdict(self.prior.stats),
+            "llm_calls_per_step": self.calls_per_step,
+        }
+        if self.trial.reuse_tree:
+            details["reused_root_visits"] = self.trial.reused_root_visits
+        return details
 
 
 def build_llm_mcts(config: PlannerConfig, progress: Progress | None) -> LlmMctsPlanner:

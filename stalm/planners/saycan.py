@@ -37,15 +37,13 @@ from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.saycan_prompt import saycan_prompt
-from stalm.planners.base import PlanResult
-from stalm.planners.episode import Episode, run_episode
+from stalm.planners.config import PlannerConfig, Progress, llm_backend, use_constraint
+from stalm.planners.episode import Episode
+from stalm.planners.online import Decision, OnlinePlanner, Trial
 from stalm.planners.plan_queries import query_seed
 from stalm.planners.proposers import ask_for_task_plans
-from stalm.planners.registry import PlannerConfig, Progress, llm_backend, use_constraint
-from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral
 from stalm.search.puct import vote_prior
-from stalm.world.problem import Problem
 from stalm.world.state import State
 
 Affordance = Callable[[DiscreteAction], bool]
@@ -163,58 +161,17 @@ class SayCanSettings:
 
 
 @dataclass
-class EpSayCanPlanner:
+class EpSayCanPlanner(OnlinePlanner):
     """SayCan with the empirical LLM policy and precondition-and-occlusion affordance."""
 
+    name = "ep-saycan"
     backend: LLMBackend
     constrained: bool = False
     settings: SayCanSettings = field(default_factory=SayCanSettings)
     progress: Progress | None = None
 
-    @property
-    def name(self) -> str:
-        return "ep-saycan"
-
-    def _say(self, message: str) -> None:
-        if self.progress is not None:
-            self.progress(message)
-
-    def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
-        return run_episode(problem, time_budget_s, lambda d, e: self._run(d, e, seed))
-
-    def _run(self, domain: Domain, episode: Episode, seed: int) -> PlanResult:
-        problem = episode.problem
-        engine = PredicateEngine(problem, domain.sim, domain.base_planner)
-        rng = np.random.default_rng(seed)
-        tally = DecisionTally()
-        step = 0
-        while True:
-            termination = episode.stop_reason(domain)
-            if termination is not None:
-                break
-            self._say(f"step {step}: predicates")
-            predicates = episode.predicates(engine)
-            chosen = self.decide(domain, episode, predicates.literals, seed, step, rng, tally)
-            if chosen is None:
-                termination = "timeout" if episode.out_of_time() else "no_progress"
-                break
-            episode.execute(domain, chosen)
-            self._say(f"executed {chosen.discrete}")
-            step += 1
-        return episode.finish(
-            domain,
-            self.name,
-            seed,
-            termination,
-            replans=tally.queries,
-            details={
-                "backend": f"{self.backend.name}:{self.backend.model}",
-                "queries": tally.queries,
-                "zero_score_queries": tally.zero_score_queries,
-                "kappa_failures": tally.kappa_failures,
-                "decisions": tally.decisions,
-            },
-        )
+    def start(self, trial: Trial) -> SayCanSteps:
+        return SayCanSteps(self, trial)
 
     def decide(
         self,
@@ -236,7 +193,7 @@ class EpSayCanPlanner:
         for attempt in range(self.settings.max_queries_per_step):
             if episode.out_of_time():
                 return None
-            self._say(f"step {step}: asking for {self.settings.n_batch} replies")
+            self.say(f"step {step}: asking for {self.settings.n_batch} replies")
             proposal = ask_for_task_plans(
                 self.backend,
                 Vocabulary.from_problem(problem),
@@ -267,11 +224,11 @@ class EpSayCanPlanner:
                     return chosen
                 tally.kappa_failures += 1
                 excluded.add(best)
-                self._say(f"step {step}: no feasible κ for {best}; excluded at this state")
+                self.say(f"step {step}: no feasible κ for {best}; excluded at this state")
             tally.zero_score_queries += 1
             tally.decisions.append(_decision(step, attempt, proposal.plans, scores, None))
             if not any(affordable(a) and a not in excluded for a in candidates):
-                self._say(f"step {step}: no affordable action left in this state")
+                self.say(f"step {step}: no affordable action left in this state")
                 return None
         return None
 
@@ -284,6 +241,46 @@ class EpSayCanPlanner:
             if not isinstance(drawn, Infeasibility):
                 return drawn
         return None
+
+
+@dataclass
+class SayCanSteps:
+    """One trial's decisions: the current state's predicates, then :meth:`EpSayCanPlanner.
+    decide`; no affordable action with a feasible κ ends the trial."""
+
+    planner: EpSayCanPlanner
+    trial: Trial
+    tally: DecisionTally = field(default_factory=DecisionTally)
+    step: int = 0
+
+    def decide(self) -> Decision:
+        trial = self.trial
+        trial.say(f"step {self.step}: predicates")
+        predicates = trial.predicates()
+        chosen = self.planner.decide(
+            trial.domain,
+            trial.episode,
+            predicates.literals,
+            trial.seed,
+            self.step,
+            trial.rng,
+            self.tally,
+        )
+        trial.replans = self.tally.queries
+        if chosen is None:
+            return "timeout" if trial.out_of_time() else "no_progress"
+        self.step += 1
+        return (chosen,)
+
+    def details(self) -> dict[str, Any]:
+        backend = self.planner.backend
+        return {
+            "backend": f"{backend.name}:{backend.model}",
+            "queries": self.tally.queries,
+            "zero_score_queries": self.tally.zero_score_queries,
+            "kappa_failures": self.tally.kappa_failures,
+            "decisions": self.tally.decisions,
+        }
 
 
 def _decision(

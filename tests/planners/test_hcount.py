@@ -15,7 +15,8 @@ from stalm.planners.hcount import (
     occluder_set,
     target_term,
 )
-from stalm.planners.stalm import StalmPlanner, StalmSettings
+from stalm.planners.stalm import StalmSettings
+from stalm.planners.uct_hcount import UctHcountPlanner
 from stalm.predicates.engine import PredicateEngine, PredicateSettings
 from stalm.predicates.literals import GroundLiteral as L
 from stalm.search import SearchSettings
@@ -78,9 +79,7 @@ def test_hcount_of_the_initial_states(problems, initial_literals, name) -> None:
 
 
 def test_uct_hcount_runs(problems) -> None:
-    planner = StalmPlanner(
-        None, StalmSettings(search=SearchSettings(budget=2), leaf_value="hcount")
-    )
+    planner = UctHcountPlanner(StalmSettings(search=SearchSettings(budget=2)))
     result = planner.solve(problems["P2"], seed=0, time_budget_s=5.0)
     assert planner.name == "uct-hcount" and result.counters.simulations >= 1
     leaves = result.details["hcount_leaves"]

@@ -9,8 +9,8 @@ import numpy as np
 from stalm.domain.actions import Open, Pick, Place
 from stalm.llm.feedback_prompt import FailedPlan, feedback_text, format_plan, with_feedback
 from stalm.llm.prompt import Prompt
+from stalm.planners.iterative_replanning import IterativeReplanningPlanner, failed_plan
 from stalm.planners.registry import PlannerConfig, build_planner
-from stalm.planners.replanning import IterativeReplanningPlanner, failed_plan
 from stalm.planners.replay import replay_result_json
 from stalm.search import TaskPlan, concretize
 from stalm.world.problem import Problem

@@ -11,6 +11,7 @@ from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.mdp import Domain
 from stalm.planners.replay import replay_plan, replay_result_json
 from stalm.planners.stalm import StalmPlanner, StalmSettings
+from stalm.planners.uct import UctPlanner
 from stalm.search import SearchSettings, SearchTree, TaskPlan, concretize, warm_started_uct
 from stalm.world.problem import Problem
 from tests.planners.doubles import ScriptedSuffixProposer
@@ -124,7 +125,7 @@ def test_same_seed_and_proposer_give_the_identical_plan(problems) -> None:
 
 
 def test_plain_uct_runs_the_same_loop_without_a_model(problems) -> None:
-    planner = StalmPlanner(None, StalmSettings(search=SearchSettings(budget=5)))
+    planner = UctPlanner(StalmSettings(search=SearchSettings(budget=5)))
     result = planner.solve(problems["P2"], seed=0, time_budget_s=8.0)
     assert planner.name == "uct" and result.planner == "uct"
     assert result.counters.llm_calls == 0 and result.counters.simulations > 0
@@ -138,12 +139,12 @@ def test_the_executed_childs_subtree_is_kept_between_steps_and_can_be_switched_o
 ) -> None:
     """Tree reuse: every real step after the first starts from a root that already has the
     visits the last step's search gave it; with reuse off, each step starts from nothing."""
-    kept = StalmPlanner(None, StalmSettings(search=SearchSettings(budget=6)))
+    kept = UctPlanner(StalmSettings(search=SearchSettings(budget=6)))
     result = kept.solve(problems["P2"], seed=1, time_budget_s=20.0)
     reused = result.details["reused_root_visits"]
     assert len(result.plan) >= 2 and reused
     assert all(visits > 0 for visits in reused)
-    fresh = StalmPlanner(None, StalmSettings(search=SearchSettings(budget=6), reuse_tree=False))
+    fresh = UctPlanner(StalmSettings(search=SearchSettings(budget=6), reuse_tree=False))
     assert (
         fresh.solve(problems["P2"], seed=1, time_budget_s=8.0).details["reused_root_visits"] == []
     )

@@ -16,7 +16,7 @@ from stalm.planners.pddlstream.adaptive import AdaptiveSettings
 from stalm.planners.pddlstream.planner import PDDLStreamPlanner
 
 if TYPE_CHECKING:
-    from stalm.planners.registry import PlannerConfig
+    from stalm.planners.config import PlannerConfig
 
 __all__ = ["AdaptiveSettings", "PDDLStreamPlanner", "build_pddlstream_adaptive"]
 

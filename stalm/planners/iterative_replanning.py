@@ -1,0 +1,173 @@
+"""Iterative-Replanning (§4.2, after Shinn et al., 2024): one plan per query, feedback on failure.
+
+At a state: ask with STaLM's prompt (the state's predicates) for ONE task plan and Concretize it.
+If it reaches the goal, execute it. If not, ask again with the same prompt plus up to the two most
+recent failed plans, each with the step that failed and why (:mod:`stalm.llm.feedback_prompt`).
+After ``attempts_per_state`` = 5 queries without a goal-reaching plan, execute the next action of
+the most recent plan -- its first step, with the κ Concretize found feasible -- and continue from
+the new state (predicates updated incrementally, as STaLM does). If that first step was not
+feasible either, nothing is executed and the loop asks again from the same state.
+
+Decisions written down here: the feedback memory holds plans tried from the *current* state and
+is cleared when an action is executed, because a failure explained against an init that no
+longer holds would mislead the model; every query's seed is derived from (trial seed, round,
+attempt), a round being one series of up to five queries.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from stalm.domain.outcome import Infeasibility
+from stalm.domain.params import Action
+from stalm.domain.vocabulary import Vocabulary
+from stalm.llm.backends.base import LLMBackend
+from stalm.llm.feedback_prompt import MAX_FAILED_PLANS, FailedPlan, with_feedback
+from stalm.llm.problem_prompt import problem_prompt
+from stalm.llm.prompt import PromptOptions
+from stalm.planners.config import PlannerConfig, Progress, llm_backend, use_constraint
+from stalm.planners.online import Decision, OnlinePlanner, Trial
+from stalm.planners.plan_queries import query_seed
+from stalm.planners.proposers import ask_for_task_plans
+from stalm.search import TaskPlan, concretize
+from stalm.search.concretize import ConcretePlan
+
+
+@dataclass(frozen=True)
+class ReplanningSettings:
+    """The paper's setting: 5 single-plan queries per state, 2 failed plans in the prompt."""
+
+    attempts_per_state: int = 5
+    max_failed_plans: int = MAX_FAILED_PLANS
+    temperature: float = 1.0
+
+
+def failed_plan(plan: ConcretePlan) -> FailedPlan:
+    """The feedback record of a task plan Concretize could not take to the goal."""
+    kind = plan.failure or "partially_achieved_goal"
+    reason = plan.detail or "the goal does not hold"
+    if plan.failed_step is not None:
+        step = plan.steps[plan.failed_step]
+        why = step.kappa if isinstance(step.kappa, Infeasibility) else step.outcome.failure
+        if why is not None:
+            reason = why.detail if why.kind == "precondition" else str(why)
+    return FailedPlan(plan.task_plan.actions, kind, reason, plan.failed_step)
+
+
+@dataclass
+class IterativeReplanningPlanner(OnlinePlanner):
+    """One task plan per query, re-asked with failure feedback, one step after 5 failures."""
+
+    name = "iterative-replanning"
+    backend: LLMBackend
+    constrained: bool = False
+    options: PromptOptions = field(default_factory=PromptOptions)
+    settings: ReplanningSettings = field(default_factory=ReplanningSettings)
+    progress: Progress | None = None
+
+    @property
+    def occlusion(self) -> bool:
+        return self.options.occlusion_predicates
+
+    def start(self, trial: Trial) -> ReplanningRounds:
+        return ReplanningRounds(self, trial, Vocabulary.from_problem(trial.problem))
+
+
+@dataclass
+class ReplanningRounds:
+    """One trial's rounds: up to ``attempts_per_state`` queries at a state, then a step."""
+
+    planner: IterativeReplanningPlanner
+    trial: Trial
+    vocabulary: Vocabulary
+    memory: list[FailedPlan] = field(default_factory=list)
+    """Failed plans tried from the current state (cleared when an action is executed)."""
+    memory_at: int = 0
+    """How many actions had been executed when ``memory`` was written."""
+    queries: int = 0
+    feedback_queries: int = 0
+    forced_steps: int = 0
+    rounds: int = 0
+
+    def decide(self) -> Decision:
+        trial, settings = self.trial, self.planner.settings
+        episode, problem, done = trial.episode, trial.problem, trial.done
+        if done != self.memory_at:
+            self.memory, self.memory_at = [], done
+        trial.say(f"step {done}: predicates")
+        predicates = trial.predicates()
+        base_prompt = problem_prompt(problem, predicates.literals, self.planner.options)
+        latest: ConcretePlan | None = None
+        to_execute: tuple[Action, ...] = ()
+        for attempt in range(settings.attempts_per_state):
+            if episode.out_of_time():
+                break
+            recent = self.memory[-settings.max_failed_plans :]
+            trial.say(f"step {done}: query {attempt + 1} ({len(recent)} failed plan(s) shown)")
+            proposal = ask_for_task_plans(
+                self.planner.backend,
+                self.vocabulary,
+                with_feedback(base_prompt, recent),
+                1,
+                query_seed(trial.seed, self.rounds, attempt),
+                constrained=self.planner.constrained,
+                temperature=settings.temperature,
+                deadline=episode.deadline,
+            )
+            episode.record_query(proposal)
+            self.queries += 1
+            self.feedback_queries += bool(recent)
+            trial.replans = self.feedback_queries
+            task_plan = (
+                TaskPlan(proposal.plans[0])
+                if proposal.plans
+                else TaskPlan.unreadable(
+                    proposal.unparseable[0] if proposal.unparseable else "no reply"
+                )
+            )
+            with trial.phase("concretize"):
+                concrete = concretize(
+                    trial.domain,
+                    trial.state,
+                    [task_plan],
+                    trial.rng,
+                    depth0=done,
+                    horizon=problem.horizon,
+                )
+            episode.count_failures(concrete)
+            if concrete.success and concrete.solution is not None:
+                to_execute = concrete.solution
+                break
+            latest = concrete.plans[0]
+            self.memory.append(failed_plan(latest))
+            self.memory = self.memory[-settings.max_failed_plans :]
+        else:
+            # five failures: the next action of the most recent plan, if it was feasible
+            to_execute = latest.actions[:1] if latest is not None else ()
+            self.forced_steps += bool(to_execute)
+        self.rounds += 1
+        return to_execute
+
+    def details(self) -> dict[str, Any]:
+        backend = self.planner.backend
+        return {
+            "backend": f"{backend.name}:{backend.model}",
+            "queries": self.queries,
+            "queries_with_feedback": self.feedback_queries,
+            "rounds": self.rounds,
+            "forced_steps": self.forced_steps,
+        }
+
+
+def build_iterative_replanning(
+    config: PlannerConfig, progress: Progress | None
+) -> IterativeReplanningPlanner:
+    """The registry's builder: the configured (cached) backend and prompt options."""
+    backend = llm_backend(config)
+    return IterativeReplanningPlanner(
+        backend,
+        constrained=use_constraint(config, backend),
+        options=config.prompt,
+        progress=progress,
+    )

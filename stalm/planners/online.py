@@ -1,0 +1,195 @@
+"""The online-planner scaffold, written once: a trial's loop around one method's decisions.
+
+STaLM and the baselines that act online (UCT, UCT-with-Hcount, EP-SayCan,
+Iterative-Replanning, LLM-MCTS) all run the same trial: start one wall-clock deadline and one
+simulator, repeatedly decide what to execute in the current state and execute it, stop at the
+goal, the horizon or the deadline, and replay the executed plan in a fresh scene before it
+counts (:meth:`Episode.finish`). :class:`OnlinePlanner` is that trial; a method is a subclass
+that says what it decides (:class:`Decider`). :class:`Trial` is what a decision may use: the
+domain, the bookkeeping (:class:`~stalm.planners.episode.Episode`), the one predicate memo of
+the trial (:class:`~stalm.planners.predicate_memo.PredicateMemo`), the seeded generator, the
+search tree kept between real steps, phase timing and progress messages.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Protocol
+
+import numpy as np
+
+from stalm.domain.mdp import Domain, RewardSettings
+from stalm.domain.params import Action
+from stalm.planners.base import PlanResult
+from stalm.planners.config import Progress
+from stalm.planners.episode import Episode
+from stalm.planners.predicate_memo import PredicateMemo
+from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.search import SearchTree
+from stalm.world.problem import Problem
+from stalm.world.scene import Sim
+from stalm.world.state import State
+
+Decision = tuple[Action, ...] | str
+"""What a decision returns: the actions to execute now (none: decide again from the same
+state), or a termination ('timeout', 'no_progress') that ends the trial."""
+
+
+@dataclass
+class Trial:
+    """One trial in progress, as a method's decisions see it (see the module docstring)."""
+
+    domain: Domain
+    episode: Episode
+    memo: PredicateMemo
+    rng: np.random.Generator
+    seed: int
+    progress: Progress | None = None
+    reuse_tree: bool = False
+    """Keep the executed child's subtree as the next step's tree (:meth:`execute`)."""
+    tree: SearchTree | None = None
+    """The search tree of the current state, if the method searches (:meth:`tree_at`)."""
+    simulations: int = 0
+    replans: int = 0
+    reused_root_visits: list[int] = field(default_factory=list)
+    """Per real step whose tree was kept: the visits its root already had."""
+
+    @property
+    def problem(self) -> Problem:
+        return self.episode.problem
+
+    @property
+    def state(self) -> State:
+        return self.episode.state
+
+    @property
+    def done(self) -> int:
+        """How many actions have been executed."""
+        return len(self.episode.executed)
+
+    def say(self, message: str) -> None:
+        if self.progress is not None:
+            self.progress(message)
+
+    @contextmanager
+    def phase(self, name: str | None) -> Iterator[None]:
+        """Charge the block's wall time to phase ``name`` (see :meth:`PhaseClock.timed`)."""
+        with self.episode.clock.timed(name):
+            yield
+
+    def out_of_time(self) -> bool:
+        return self.episode.out_of_time()
+
+    def predicates(self) -> PredicateCache:
+        """The current state's predicates, from the trial's memo."""
+        return self.episode.predicates(self.memo)
+
+    def tree_at(self, state: State) -> SearchTree:
+        """The tree rooted at ``state``: the one kept from the last step if it is rooted
+        there, else a new one (kept until an action is executed)."""
+        if self.tree is None or self.tree.root != state:
+            self.tree = SearchTree.for_root(self.domain, state)
+        return self.tree
+
+    def execute(self, action: Action) -> None:
+        """Execute a feasible sampled action; with tree reuse, the executed action's child
+        becomes the tree's root, with its statistics (the authors' loop)."""
+        before = self.episode.state
+        self.episode.execute(self.domain, action)
+        tree, self.tree = self.tree, None
+        after = self.episode.state
+        if tree is not None and self.reuse_tree and tree.root == before and after in tree:
+            self.tree = tree.subtree(after)
+            self.reused_root_visits.append(self.tree.visits(after))
+        self.say(f"executed {action.discrete}")
+
+
+class Decider(Protocol):
+    """One method's decisions within one trial (made by :meth:`OnlinePlanner.start`)."""
+
+    def decide(self) -> Decision:
+        """What to do in the trial's current state."""
+        ...
+
+    def details(self) -> dict[str, Any]:
+        """The method's own record for ``PlanResult.details``."""
+        ...
+
+
+class OnlinePlanner(ABC):
+    """A planner that acts online: subclasses name the method and make its :class:`Decider`.
+
+    A subclass is a dataclass with a ``progress`` field; it may override :attr:`rewards`
+    (R's constants), :attr:`occlusion` (whether the trial's predicates include the occlusion
+    literals, which cost motion planning) and :attr:`reuse_tree`.
+    """
+
+    name: ClassVar[str]
+    progress: Progress | None
+
+    @property
+    def rewards(self) -> RewardSettings:
+        return RewardSettings()
+
+    @property
+    def occlusion(self) -> bool:
+        return True
+
+    @property
+    def reuse_tree(self) -> bool:
+        return False
+
+    def say(self, message: str) -> None:
+        """Report progress (``stalm solve`` prints it)."""
+        if self.progress is not None:
+            self.progress(message)
+
+    @abstractmethod
+    def start(self, trial: Trial) -> Decider:
+        """The method's decisions for a trial that starts now."""
+
+    def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
+        """Plan and execute until the goal, the horizon or the time budget (None: the
+        problem's), in a simulator of the trial's own that is always closed."""
+        episode = Episode.begin(problem, time_budget_s)
+        domain = Domain(problem, Sim(problem.spec), reward_settings=self.rewards)
+        try:
+            engine = PredicateEngine(
+                problem, domain.sim, domain.base_planner, occlusion=self.occlusion
+            )
+            trial = Trial(
+                domain,
+                episode,
+                PredicateMemo(engine, episode.clock),
+                np.random.default_rng(seed),
+                seed,
+                progress=self.progress,
+                reuse_tree=self.reuse_tree,
+            )
+            decider = self.start(trial)
+            termination = run(trial, decider)
+            return episode.finish(
+                domain,
+                self.name,
+                seed,
+                termination,
+                simulations=trial.simulations,
+                replans=trial.replans,
+                details=decider.details(),
+            )
+        finally:
+            domain.close()
+
+
+def run(trial: Trial, decider: Decider) -> str:
+    """The online loop: decide, execute, until a stop reason or a terminating decision."""
+    while (termination := trial.episode.stop_reason(trial.domain)) is None:
+        decision = decider.decide()
+        if isinstance(decision, str):
+            return decision
+        for action in decision:
+            trial.execute(action)
+    return termination

@@ -1,0 +1,42 @@
+"""STaLM w/o UCT (Table 3): Concretize the proposer's task plans, and no search after it.
+
+The ablation keeps STaLM's step -- predicates, N_batch task plans, Concretize, execute a plan
+that reached the goal -- and replaces the warm-started search by the simplest use of what
+Concretize found: the first action of the task plan that got furthest. It is its own class
+(not a flag of STaLM's settings) so that a planner's name is what it is, never derived from
+its settings.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from stalm.domain.params import Action
+from stalm.planners.stalm import StalmPlanner, StalmStep
+from stalm.search import ConcretePlan
+
+
+class NoUctStep(StalmStep):
+    """STaLM's step whose decision without a goal plan is the best plan's first action."""
+
+    def without_goal_plan(self, plans: list[ConcretePlan]) -> tuple[Action, ...]:
+        self._step["decision"] = "best_prefix"
+        return first_action_of_best_prefix(plans)
+
+
+@dataclass
+class StalmNoUctPlanner(StalmPlanner):
+    """STaLM without the tree search (Table 3's 'STaLM w/o UCT')."""
+
+    name = "stalm-no-uct"
+    step_type = NoUctStep
+
+
+def first_action_of_best_prefix(plans: list[ConcretePlan]) -> tuple[Action, ...]:
+    """The first action of the task plan that got furthest (the first of equally long ones)."""
+    best: tuple[Action, ...] = ()
+    for plan in plans:
+        actions = plan.actions
+        if len(actions) > len(best):
+            best = actions
+    return best[:1]

@@ -1,0 +1,262 @@
+"""One real step of the tree planners: STaLM, STaLM w/o UCT, UCT and UCT-with-Hcount.
+
+These four run the same step (Algorithm 1's loop body): get task plans and Concretize them
+(STaLM's part, :meth:`SearchStep.propose`; none for UCT), execute a plan that reached the goal,
+and otherwise run (warm-started) UCT from the current state and execute what the execution
+rule chooses (:meth:`SearchStep.search`; STaLM w/o UCT takes the best plan's first action
+instead). :class:`SearchStep` is that step and its record (:mod:`stalm.planners.step_log`);
+:class:`StalmSettings` its settings, with the paper's values and what this implementation adds:
+
+* **tree reuse** (the authors' loop): the executed child's subtree is the next step's tree
+  (:meth:`stalm.planners.online.Trial.execute`), so statistics accumulate over the episode;
+* **the execution rule**: without a goal plan, 'progress' executes the highest-Q root action
+  from which the tree knows a way to more goal conjuncts than the root has, and while no
+  root action does, searches on from the same root (within the step's share of the time),
+  rather than spending an irreversible step of the horizon on a coin toss ('best_q', the
+  authors' rule).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any, Literal, cast
+
+from stalm.domain.mdp import Domain, RewardSettings
+from stalm.domain.params import Action
+from stalm.errors import StalmError
+from stalm.planners.online import Decision, OnlinePlanner, Trial
+from stalm.planners.step_log import tree_record, warm_edges
+from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
+from stalm.world.state import State
+
+ExecutionRule = Literal["best_q", "progress"]
+EXECUTION_RULES: tuple[str, ...] = ("best_q", "progress")
+
+
+@dataclass(frozen=True)
+class StalmSettings:
+    """Appendix B: N_batch = 5, N_budget = 30, c = 50, PW (1.5, 0.15), γ = 0.99; and what
+    this implementation adds beyond the paper (each can be switched back to the paper's way).
+    """
+
+    n_batch: int = 5
+    search: SearchSettings = field(default_factory=SearchSettings)
+    reuse_tree: bool = True
+    """Keep the executed child's subtree as the next step's tree (the authors' experiment
+    loop); False starts every real step from a fresh tree."""
+    feedback: bool = False
+    """Geometric feedback (:mod:`stalm.planners.feedback`): Concretize's failed steps go back
+    to the proposer, which is asked again while the step's share of the budget lasts. Off
+    for the paper's rows."""
+    feedback_rounds: int = 8
+    """At most this many proposals per real step with feedback (the first one included)."""
+    step_share: float = 0.25
+    """A real step may spend at most this fraction of the trial's remaining time asking the
+    proposer again (feedback) or searching on with no progress ('progress' rule)."""
+    execution: ExecutionRule = "best_q"
+    """What to execute when no goal plan was found: 'best_q' the highest-Q root action (the
+    authors' rule); 'progress' the highest-Q root action from which the tree reaches more
+    goal conjuncts than the root has, searching on (within ``step_share``) while none does."""
+    kappa_tries: int = 1
+    """κ draws per task-plan step in Concretize (Algorithm 2: 1; the authors' code: 3)."""
+    backtracks: int = 0
+    """Concretize draws a placement again when an object the plan put down is in the way of a
+    later step, at most this many times per plan (0: Algorithm 2)."""
+    rewards: RewardSettings = field(default_factory=RewardSettings)
+    """R's constants (§4.1, with the potential-based −3 of the research notes)."""
+    occlusion_predicates: bool = True
+    """Compute PickOccludedBy/PlaceOccludedBy: for the prompt (False for Table 4's arms whose
+    prompt does not show them, so those arms do not pay for motion planning they never use)
+    or for Hcount (always on for UCT-with-Hcount)."""
+
+    def __post_init__(self) -> None:
+        if self.execution not in EXECUTION_RULES:
+            raise StalmError(
+                f"unknown execution rule '{self.execution}' "
+                f"(available: {', '.join(EXECUTION_RULES)})"
+            )
+        if self.kappa_tries < 1:
+            raise StalmError(f"kappa_tries must be at least 1, got {self.kappa_tries}")
+        if self.feedback_rounds < 1:
+            raise StalmError(f"feedback_rounds must be at least 1, got {self.feedback_rounds}")
+        if not 0.0 < self.step_share <= 1.0:
+            raise StalmError(f"step_share must be in (0, 1], got {self.step_share}")
+
+    @property
+    def needs_occlusion(self) -> bool:
+        """Whether the predicate engine must plan occlusions (for the prompt or Hcount)."""
+        return self.occlusion_predicates
+
+
+class TreePlanner(OnlinePlanner):
+    """An online planner configured by :class:`StalmSettings` (STaLM, UCT and their
+    variants): R's constants, the occlusion predicates and tree reuse come from there."""
+
+    settings: StalmSettings
+
+    @property
+    def rewards(self) -> RewardSettings:
+        return self.settings.rewards
+
+    @property
+    def occlusion(self) -> bool:
+        return self.settings.occlusion_predicates
+
+    @property
+    def reuse_tree(self) -> bool:
+        return self.settings.reuse_tree
+
+
+class SearchStep:
+    """The real steps of one trial of a tree planner (see the module docstring)."""
+
+    def __init__(self, trial: Trial, settings: StalmSettings, policies: SearchPolicies) -> None:
+        self.trial = trial
+        self.settings = settings
+        self.policies = policies
+        self.step_log: list[dict[str, Any]] = []
+        """Per real step: the task plans and their fate, the tree, the decision
+        (:mod:`stalm.planners.step_log`)."""
+        self._step: dict[str, Any] = {}
+        """The current step's entry of ``step_log``."""
+
+    def decide(self) -> Decision:
+        trial = self.trial
+        trial.replans += 1
+        self._step = {"step": trial.done, "proposals": [], "tree": None}
+        self.step_log.append(self._step)
+        plans, solution = self.propose()
+        if trial.out_of_time() and solution is None:
+            self._step["decision"] = "timeout"
+            return "timeout"
+        if solution is not None:
+            self._step["decision"] = "concretize_goal"
+        to_execute = solution if solution is not None else self.without_goal_plan(plans)
+        self._step["executed"] = len(to_execute)
+        # nothing feasible found (an empty plan): the loop asks again from the same state
+        return to_execute
+
+    def propose(self) -> tuple[list[ConcretePlan], tuple[Action, ...] | None]:
+        """Task plans tried from the current state, and a goal plan among them (UCT: none)."""
+        return [], None
+
+    def without_goal_plan(self, plans: list[ConcretePlan]) -> tuple[Action, ...]:
+        """What to execute when no task plan reached the goal: the search's choice."""
+        return self.search(plans)
+
+    def details(self) -> dict[str, Any]:
+        return {
+            "proposer": None,
+            "settings": {
+                "reuse_tree": self.settings.reuse_tree,
+                "feedback": self.settings.feedback,
+                "execution": self.settings.execution,
+                "kappa_tries": self.settings.kappa_tries,
+                "backtracks": self.settings.backtracks,
+                "goal_atom_lost": self.settings.rewards.goal_atom_lost,
+            },
+            "proposals": 0,
+            "feedback_steps_learned": 0,
+            "reused_root_visits": self.trial.reused_root_visits,
+            "steps": [],
+            "step_log": self.step_log,
+        }
+
+    def share_end(self) -> float:
+        """When this step's share of the trial's remaining time runs out."""
+        now = time.monotonic()
+        return now + self.settings.step_share * max(0.0, self.trial.episode.deadline - now)
+
+    def search(self, plans: list[ConcretePlan]) -> tuple[Action, ...]:
+        """The tree's goal plan if the search (warm-started with ``plans``) finds one, else
+        one root action chosen by the execution rule."""
+        trial = self.trial
+        domain, state, done = trial.domain, trial.state, trial.done
+        search = self.settings.search
+        tree = trial.tree_at(state)
+        visits_before = tree.visits(state)
+        share_end = self.share_end()
+
+        def decided(how: str) -> None:
+            self._step["decision"] = how
+            self._step["tree"] = tree_record(tree, warm_edges(plans), visits_before)
+
+        warm = plans
+        while True:
+            trial.say(f"step {done}: warm-started UCT, {search.budget} simulations")
+            with trial.phase("tree"):
+                result = warm_started_uct(
+                    domain,
+                    state,
+                    warm,
+                    trial.rng,
+                    settings=search,
+                    depth0=done,
+                    deadline=trial.episode.deadline,
+                    policies=self.policies,
+                    tree=tree,
+                )
+            trial.simulations += result.counters.simulations
+            if result.goal_plan:
+                decided("tree_goal")
+                return result.goal_plan
+            if result.best_action is None:
+                decided("nothing")
+                return ()
+            if self.settings.execution == "best_q":
+                decided("best_q")
+                return (result.best_action,)
+            promising = _best_promising_action(tree, domain)
+            if promising is not None:
+                decided("progress")
+                return (promising,)
+            if (
+                result.stop_reason == "deadline"
+                or time.monotonic() >= share_end
+                or search.budget == 0
+            ):
+                decided("best_q_fallback")
+                return (result.best_action,)
+            warm = []
+
+
+def _best_promising_action(tree: SearchTree, domain: Domain) -> Action | None:
+    """The 'progress' rule: the highest-Q root action whose subtree holds a state with more
+    goal conjuncts true than the root (the tree knows a way on from it to goal progress),
+    with its highest-Q feasible κ; None if no root action leads to progress."""
+    root = tree.node(tree.root)
+    baseline = domain.goal_atoms_true(tree.root)
+    best: tuple[float, int, Action] | None = None
+    for cont in root.children:
+        kappas = [k for k in cont.children if k.n > 0 and k.outcome.feasible]
+        if not kappas:
+            continue
+        kappa = max(kappas, key=lambda k: (k.q, k.n))
+        if best is not None and (cont.q, cont.n) <= best[:2]:
+            continue
+        if _reaches_progress(tree, domain, kappa.outcome.state, baseline):
+            # a feasible κ child is keyed by its sampled action
+            best = (cont.q, cont.n, cast(Action, kappa.kappa))
+    return None if best is None else best[2]
+
+
+def _reaches_progress(tree: SearchTree, domain: Domain, start: State, baseline: int) -> bool:
+    """Whether ``start`` or a state the tree reaches from it (by feasible, visited κ) has
+    more than ``baseline`` goal conjuncts true."""
+    seen: set[State] = set()
+    frontier = [start]
+    while frontier:
+        state = frontier.pop()
+        if state in seen:
+            continue
+        seen.add(state)
+        if domain.goal_atoms_true(state) > baseline:
+            return True
+        if state not in tree:
+            continue
+        for cont in tree.node(state).children:
+            frontier.extend(
+                k.outcome.state for k in cont.children if k.n > 0 and k.outcome.feasible
+            )
+    return False

@@ -1,0 +1,38 @@
+"""UCT (§4.2's baseline): STaLM's online hybrid search with no task plans to warm it.
+
+Each real step runs UCT over κ with progressive widening and random rollouts from the current
+state (Algorithms 3–5 with an empty warm start), N_budget = 35 simulations, and executes the
+tree's goal plan or the root action the execution rule picks (:class:`~stalm.planners.
+tree_step.SearchStep`, the step STaLM runs after Concretize). No language model, no
+predicates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from stalm.planners.config import Progress
+from stalm.planners.online import Trial
+from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
+from stalm.search import SearchPolicies
+
+UCT_BUDGET = 35
+"""N_budget of the UCT baselines in the paper's §4.2."""
+
+
+@dataclass
+class UctPlanner(TreePlanner):
+    """Plain hybrid UCT run online (the 'uct' row)."""
+
+    name = "uct"
+    settings: StalmSettings = field(default_factory=StalmSettings)
+    """STaLM's settings; the proposer's (N_batch, feedback, κ tries, backtracks) do not
+    apply."""
+    progress: Progress | None = None
+
+    def policies(self, trial: Trial) -> SearchPolicies:
+        """The search's policies: UCT's, with random rollouts at new leaves."""
+        return SearchPolicies.from_settings(self.settings.search)
+
+    def start(self, trial: Trial) -> SearchStep:
+        return SearchStep(trial, self.settings, self.policies(trial))

@@ -1,0 +1,178 @@
+"""The online-planner base: nested phase timing, the one predicate memo, the planners' names,
+and the registry above the planners."""
+
+from __future__ import annotations
+
+import ast
+import time
+from pathlib import Path
+
+import pytest
+
+from stalm.domain.actions import Open, Pick
+from stalm.planners.episode import PhaseClock
+from stalm.planners.iterative_replanning import IterativeReplanningPlanner
+from stalm.planners.llm_mcts import LlmMctsPlanner
+from stalm.planners.online import OnlinePlanner
+from stalm.planners.predicate_memo import PredicateMemo
+from stalm.planners.registry import planners
+from stalm.planners.saycan import EpSayCanPlanner
+from stalm.planners.stalm import StalmPlanner
+from stalm.planners.stalm_no_uct import StalmNoUctPlanner
+from stalm.planners.uct import UctPlanner
+from stalm.planners.uct_hcount import UctHcountPlanner
+from stalm.predicates.engine import PredicateCache
+
+PLANNERS = Path(__file__).resolve().parents[2] / "stalm" / "planners"
+
+
+def test_a_phase_timed_inside_another_is_not_charged_to_the_outer_one() -> None:
+    clock = PhaseClock()
+    with clock.timed("tree"):
+        time.sleep(0.02)
+        with clock.timed("predicates"):
+            time.sleep(0.05)
+        with clock.timed(None):  # a query: its seconds are charged elsewhere
+            time.sleep(0.05)
+    assert clock.predicates >= 0.05
+    assert 0.02 <= clock.tree < 0.05, "the tree phase excludes the nested blocks"
+
+
+class EngineDouble:
+    """A predicate-engine double: records which states were computed and brought forward."""
+
+    problem = None
+
+    def __init__(self) -> None:
+        self.computed: list[object] = []
+        self.updated: list[tuple[object, object, object]] = []
+
+    def compute(self, state: object) -> PredicateCache:
+        self.computed.append(state)
+        return PredicateCache(state=state, literals=frozenset())  # type: ignore[arg-type]
+
+    def update(self, cache: PredicateCache, action: object, state: object) -> PredicateCache:
+        self.updated.append((cache.state, action, state))
+        return PredicateCache(state=state, literals=frozenset())  # type: ignore[arg-type]
+
+
+def test_the_memo_computes_a_state_once_and_brings_the_rest_forward_along_a_path() -> None:
+    engine = EngineDouble()
+    memo = PredicateMemo(engine)  # type: ignore[arg-type]
+    first = memo.of("s0")  # type: ignore[arg-type]
+    assert memo.of("s0") is first and engine.computed == ["s0"]  # type: ignore[arg-type]
+    # an executed path s0 -open-> s1 -pick-> s2: each state from its parent's
+    opened, picked = _action(Open("kitchen_door")), _action(Pick("salter"))
+    memo.along(["s0", "s1", "s2"], [opened, picked])  # type: ignore[list-item]
+    assert engine.updated == [
+        ("s0", Open("kitchen_door"), "s1"),
+        ("s1", Pick("salter"), "s2"),
+    ]
+    # a leaf whose parent is known (as a search's arrival edge gives it) is not recomputed
+    memo.of("s3", "s1", Pick("bottle1"))  # type: ignore[arg-type]
+    assert (memo.computed_from_scratch, memo.brought_forward) == (1, 3)
+    assert memo.known("s3") is not None and memo.known("s9") is None  # type: ignore[arg-type]
+
+
+def _action(discrete: object) -> object:
+    class ActionDouble:
+        def __init__(self) -> None:
+            self.discrete = discrete
+
+    return ActionDouble()
+
+
+@pytest.mark.parametrize(
+    ("cls", "name"),
+    [
+        (StalmPlanner, "stalm"),
+        (StalmNoUctPlanner, "stalm-no-uct"),
+        (UctPlanner, "uct"),
+        (UctHcountPlanner, "uct-hcount"),
+        (EpSayCanPlanner, "ep-saycan"),
+        (IterativeReplanningPlanner, "iterative-replanning"),
+        (LlmMctsPlanner, "llm-mcts"),
+    ],
+)
+def test_each_online_method_is_one_class_of_the_base_named_by_the_paper(
+    cls: type[OnlinePlanner], name: str
+) -> None:
+    assert issubclass(cls, OnlinePlanner) and cls.name == name
+    assert name in planners()
+
+
+def _imported_modules(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text())
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module:
+            found.add(node.module)
+        elif isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+    return found
+
+
+def test_no_planner_module_imports_the_registry_which_imports_them_directly() -> None:
+    for path in PLANNERS.rglob("*.py"):
+        if path.name == "registry.py":
+            continue
+        assert "stalm.planners.registry" not in _imported_modules(path), path
+    registry = (PLANNERS / "registry.py").read_text()
+    assert "importlib" not in registry
+    assert "stalm.planners.llm_mcts" in _imported_modules(PLANNERS / "registry.py")
+
+
+def test_the_online_scaffold_is_written_once() -> None:
+    for path in PLANNERS.glob("*.py"):
+        if path.name in ("online.py", "episode.py"):
+            continue
+        text = path.read_text()
+        assert "Episode.begin(" not in text and "def _say(" not in text, path.name
+        assert "PredicateEngine(" not in text, f"{path.name} builds its own predicate engine"
+
+
+def test_no_planner_module_is_much_over_400_lines() -> None:
+    long = {
+        str(path.relative_to(PLANNERS)): lines
+        for path in PLANNERS.rglob("*.py")
+        if (lines := len(path.read_text().splitlines())) > 440
+    }
+    assert long == {}
+
+
+def test_llm_mcts_keeps_the_executed_childs_subtree_and_priors_when_asked_to(problems) -> None:
+    from stalm.domain.actions import Place
+    from stalm.llm.prompt import PromptOptions
+    from stalm.planners.llm_mcts import LlmMctsSettings
+    from stalm.planners.proposers import LLMProposer
+    from stalm.search import SearchSettings
+    from stalm.world.problem import Problem
+    from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply
+
+    p2 = problems["P2"]
+    short = Problem(p2.spec.model_copy(update={"horizon": 2}), p2.source)
+    reply = plan_reply([Open("kitchen_door"), Pick("bottle2"), Place("bottle2", "on", "counter1")])
+
+    def run(reuse: bool) -> dict[str, object]:
+        backend = ScriptedReplyBackendDouble(queue=[[reply]])
+        no_occlusion = PromptOptions(occlusion_predicates=False)
+        settings = LlmMctsSettings(
+            search=SearchSettings(budget=3, horizon=2),
+            samples=2,
+            occlusion_predicates=False,
+            reuse_tree=reuse,
+        )
+        planner = LlmMctsPlanner(LLMProposer(backend, no_occlusion), settings)
+        result = planner.solve(short, 0, 600.0)
+        assert len(result.plan) == 2
+        return result.details
+
+    kept = run(True)
+    reused = kept["reused_root_visits"]
+    assert isinstance(reused, list) and reused and all(v > 0 for v in reused)
+    # the second step's root and the nodes under it already have their priors: fewer calls
+    fresh = run(False)
+    assert "reused_root_visits" not in fresh
+    calls_kept, calls_fresh = kept["llm_calls_per_step"], fresh["llm_calls_per_step"]
+    assert isinstance(calls_kept, list) and isinstance(calls_fresh, list)
+    assert calls_kept[0] == calls_fresh[0] and calls_kept[1] < calls_fresh[1]
