@@ -14,8 +14,8 @@ alter behaviour regenerates the file on purpose::
 
     PYTHONPATH=. python -m tests.planners.test_planners_unchanged
 
-and says why in its commit. The slow cases (stalm-symbolic on the problems other than P2, each
-paying for one state's predicates) run with ``pytest -m slow``.
+and says why in its commit. The slow cases (stalm-symbolic and uct on the problems other than P2,
+each paying for its own scene) run with ``pytest -m slow``.
 """
 
 from __future__ import annotations
@@ -95,7 +95,10 @@ CASES: tuple[Case, ...] = (
     # without occlusion literals: LLM-MCTS computes every new node's predicates
     Case("llm-mcts", "P2", 1, 0, {"sims": 3, "batch": 2, "prompt": _NO_OCCLUSION}, reply="both"),
     Case("pddlstream-adaptive", "P2", 1, 0, {}),
-    *(Case("uct", name, 1, 0, {"sims": 3, **_BEST_Q}) for name in ("P1", "P3", "P4", "P5", "P6")),
+    *(
+        Case("uct", name, 1, 0, {"sims": 3, **_BEST_Q}, slow=True)
+        for name in ("P1", "P3", "P4", "P5", "P6")
+    ),
     *(Case("stalm", name, 1, 0, _SYMBOLIC, slow=True) for name in ("P1", "P3", "P4", "P5", "P6")),
 )
 
