@@ -4,24 +4,14 @@ and is caught before any planning time is spent (issue 16, item 5)."""
 from __future__ import annotations
 
 import json
-import sys
 from collections.abc import Iterator
 
 import pytest
 
-from stalm.cli.main import main
+from tests.cli_runner import run_cli
 from tests.llm.llm_doubles import ScriptedHTTPServerDouble, ScriptedReply
 
 BINARY = bytes(range(256)) * 4
-
-
-def run_cli(monkeypatch: pytest.MonkeyPatch, *args: str) -> int:
-    monkeypatch.setattr(sys, "argv", ["stalm", *args])
-    try:
-        main()
-    except SystemExit as done:
-        return int(done.code or 0)
-    return 0
 
 
 def one_error_line(err: str) -> str:

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import json
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -12,19 +11,10 @@ import pytest
 import yaml
 
 from stalm.cli.display import printable, shown
-from stalm.cli.main import main
+from tests.cli_runner import run_cli
 from tests.llm.llm_doubles import ScriptedHTTPServerDouble, ScriptedReply, chat_completion
 
 HOSTILE = "[/] [bold]loud[/bold] \x1b[2J\x1b]0;pwned\x07 \x9b31m \u202edesrever\u202c done"
-
-
-def run_cli(monkeypatch: pytest.MonkeyPatch, *args: str) -> int:
-    monkeypatch.setattr(sys, "argv", ["stalm", *args])
-    try:
-        main()
-    except SystemExit as done:
-        return int(done.code or 0)
-    return 0
 
 
 def no_control_codes(text: str) -> None:

@@ -10,29 +10,19 @@ from __future__ import annotations
 
 import copy
 import json
-import sys
 from pathlib import Path
 
 import pytest
 
-from stalm.cli.main import main
 from stalm.viz.view_data import view_data
 from stalm.viz.view_page import render_page
+from tests.cli_runner import run_cli
 
 DATA = Path(__file__).parent / "data"
 STEPS_RESULT = json.loads((DATA / "p2_steps_result.json").read_text())
 OLD_RESULT = json.loads(
     (Path(__file__).parent.parent / "planners" / "data" / "p2_result.json").read_text()
 )
-
-
-def run_cli(monkeypatch: pytest.MonkeyPatch, *args: str) -> int:
-    monkeypatch.setattr(sys, "argv", ["stalm", *args])
-    try:
-        main()
-    except SystemExit as done:
-        return int(done.code or 0)
-    return 0
 
 
 @pytest.fixture(scope="module")
