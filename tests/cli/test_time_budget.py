@@ -20,7 +20,7 @@ from tests.cli_runner import run_cli
 pytestmark = pytest.mark.slow
 
 BUDGET_S = 3.0
-TRIAL_MARGIN_S = 1.5
+TRIAL_MARGIN_S = 2.0
 """How long past its budget the trial may end: one sample's time, and the result's making."""
 CALL_MARGIN_S = 20.0
 """The whole command beyond the trial: loading P3 and its problem check (roadmaps cached)."""

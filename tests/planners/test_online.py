@@ -147,12 +147,12 @@ def test_no_planner_module_is_over_400_lines() -> None:
 def test_a_trial_ends_at_its_deadline_while_predicates_are_computed(problems, planner) -> None:
     """P2's first predicates take seconds; a one-second trial stops inside them (STaLM's
     prompt predicates; UCT-with-Hcount's, from a leaf inside its search) as a 'timeout' with
-    its result, and keeps nothing half-computed."""
+    its result."""
     budget = 1.0
     config = PlannerConfig(proposer="symbolic")
     result = build_planner(planner, config).solve(problems["P2"], seed=0, time_budget_s=budget)
     assert result.termination == "timeout" and not result.success
-    assert result.times.total <= budget + 1.0, result.times
+    assert result.times.total <= budget + 1.5, result.times  # less than P2's first predicates take
     assert result.times.predicates <= result.times.total
     assert result.plan == () and result.states == (problems["P2"].initial_state,)
     assert result.counters.collision_checks > 0  # the predicates were being computed
