@@ -19,13 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from stalm.experiments.paper_tables import TABLE2
-
-FAILURE_KINDS = (
-    "precondition_violation",
-    "lack_of_3d_understanding",
-    "partially_achieved_goal",
-    "unparseable",
-)
+from stalm.search.concretize import FAILURE_KINDS
 
 
 @dataclass(frozen=True)

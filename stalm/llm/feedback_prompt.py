@@ -25,6 +25,7 @@ FAILURE_WORDS: dict[str, str] = {
     "lack_of_3d_understanding": "no feasible motion or placement",
     "partially_achieved_goal": "goal not achieved",
     "unparseable": "the reply could not be read",
+    "no_plan": "no plan was found",
 }
 """How each failure kind of :mod:`stalm.search.concretize` is named to the model."""
 

@@ -148,7 +148,7 @@ class Episode:
         """
         if isinstance(memo, PredicateEngine):
             if self.memo is None or self.memo.engine is not memo:
-                self.memo = PredicateMemo(memo, self.clock)
+                self.memo = PredicateMemo(memo, self.clock, self.out_of_time)
             memo = self.memo
         self.memo = memo
         return memo.along(self.states, self.executed)

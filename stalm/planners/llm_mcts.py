@@ -192,7 +192,7 @@ class LLMPrior:
             self.on_query(proposal)
         legal = set(actions)
         votes = tuple(plan[0] for plan in proposal.plans if plan and plan[0] in legal)
-        replies = len(proposal.plans) + len(proposal.unparseable)
+        replies = len(proposal.plans) + len(proposal.unparseable) + len(proposal.no_plan)
         stats = self._stats
         self._stats = replace(
             stats,

@@ -3,7 +3,8 @@
 STaLM and the baselines that act online (UCT, UCT-with-Hcount, EP-SayCan,
 Iterative-Replanning, LLM-MCTS) all run the same trial: start one wall-clock deadline and one
 simulator, repeatedly decide what to execute in the current state and execute it, stop at the
-goal, the horizon or the deadline, and replay the executed plan in a fresh scene before it
+goal, the horizon or the deadline (also when it passes during a predicate computation, which
+the deadline bounds), and replay the executed plan in a fresh scene before it
 counts (:meth:`Episode.finish`). :class:`OnlinePlanner` is that trial; a method is a subclass
 that says what it decides (:class:`Decider`). :class:`Trial` is what a decision may use: the
 domain, the bookkeeping (:class:`~stalm.planners.episode.Episode`), the one predicate memo of
@@ -27,6 +28,7 @@ from stalm.planners.base import PlanResult
 from stalm.planners.config import Progress
 from stalm.planners.episode import Episode
 from stalm.planners.predicate_memo import PredicateMemo
+from stalm.predicates.deadline import DeadlinePassed
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.search import SearchTree
 from stalm.world.problem import Problem
@@ -163,7 +165,7 @@ class OnlinePlanner(ABC):
             trial = Trial(
                 domain,
                 episode,
-                PredicateMemo(engine, episode.clock),
+                PredicateMemo(engine, episode.clock, episode.out_of_time),
                 np.random.default_rng(seed),
                 seed,
                 progress=self.progress,
@@ -185,11 +187,19 @@ class OnlinePlanner(ABC):
 
 
 def run(trial: Trial, decider: Decider) -> str:
-    """The online loop: decide, execute, until a stop reason or a terminating decision."""
-    while (termination := trial.episode.stop_reason(trial.domain)) is None:
-        decision = decider.decide()
-        if isinstance(decision, str):
-            return decision
-        for action in decision:
-            trial.execute(action)
+    """The online loop: decide, execute, until a stop reason or a terminating decision.
+
+    A predicate computation the trial's deadline cut short (:exc:`DeadlinePassed`, raised
+    from wherever a decision needed predicates) ends the trial as 'timeout'; what was
+    executed before stays the trial's plan."""
+    try:
+        while (termination := trial.episode.stop_reason(trial.domain)) is None:
+            decision = decider.decide()
+            if isinstance(decision, str):
+                return decision
+            for action in decision:
+                trial.execute(action)
+    except DeadlinePassed:
+        trial.say("the deadline passed while predicates were computed")
+        return "timeout"
     return termination

@@ -7,6 +7,11 @@ all of them. A state's predicates are derived from its parent's with Appendix A'
 update (:meth:`PredicateEngine.update`, equal to a full computation and several times cheaper)
 when the action between them is known, and computed from scratch otherwise; either way they
 are kept for the rest of the trial, since later steps' trees revisit earlier states.
+
+Every computation is bounded by the trial's deadline: past it the engine gives up between two
+samples (:exc:`~stalm.predicates.deadline.DeadlinePassed`, which the online loop turns into
+the trial's 'timeout'), and nothing of the computation is kept, so the memo holds only
+complete predicates.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from typing import Protocol
 
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
+from stalm.predicates.deadline import Deadline
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.world.problem import Problem
 from stalm.world.state import State
@@ -32,13 +38,20 @@ class PredicateMemo:
     """The predicates of every state a trial asked about (see the module docstring).
 
     ``timing`` charges each computation to the trial's 'predicates' phase (the trial's
-    clock; None: nothing is timed). ``computed_from_scratch`` and
-    ``brought_forward`` count the two kinds of computation.
+    clock; None: nothing is timed). ``deadline`` bounds every computation (the trial's;
+    None: none). ``computed_from_scratch`` and ``brought_forward`` count the two kinds of
+    computation.
     """
 
-    def __init__(self, engine: PredicateEngine, timing: Timing | None = None) -> None:
+    def __init__(
+        self,
+        engine: PredicateEngine,
+        timing: Timing | None = None,
+        deadline: Deadline | None = None,
+    ) -> None:
         self.engine = engine
         self.timing = timing
+        self.deadline = deadline
         self._known: dict[State, PredicateCache] = {}
         self.computed_from_scratch = 0
         self.brought_forward = 0
@@ -55,18 +68,20 @@ class PredicateMemo:
         self, state: State, parent: State | None = None, action: DiscreteAction | None = None
     ) -> PredicateCache:
         """The predicates of ``state``: kept ones, else brought forward from ``parent``'s
-        through ``action`` (which leads from ``parent`` to ``state``), else from scratch."""
+        through ``action`` (which leads from ``parent`` to ``state``), else from scratch.
+        Raises :exc:`~stalm.predicates.deadline.DeadlinePassed` (and keeps nothing new) once
+        the deadline has passed during a computation."""
         known = self._known.get(state)
         if known is not None:
             return known
         if parent is None or action is None:
             with self._timed():
-                cache = self.engine.compute(state)
+                cache = self.engine.compute(state, self.deadline)
             self.computed_from_scratch += 1
         else:
             before = self.of(parent)
             with self._timed():
-                cache = self.engine.update(before, action, state)
+                cache = self.engine.update(before, action, state, self.deadline)
             self.brought_forward += 1
         self._known[state] = cache
         return cache

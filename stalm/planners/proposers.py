@@ -49,6 +49,10 @@ class Proposal:
 
     plans: tuple[tuple[DiscreteAction, ...], ...]
     unparseable: tuple[str, ...] = ()
+    """Per model reply that could not be read: the parser's reason."""
+    no_plan: tuple[str, ...] = ()
+    """Why a planning proposer (no model: the symbolic one) found no plan; Figure 5 counts it
+    as ``no_plan``, not as an unreadable reply."""
     replies: tuple[str, ...] = ()
     calls: int = 0
     prompt_tokens: int = 0

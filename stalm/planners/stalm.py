@@ -120,6 +120,7 @@ class StalmStep(SearchStep):
                 return plans, None
             task_plans = [TaskPlan(plan) for plan in proposal.plans]
             task_plans += [TaskPlan.unreadable(reason) for reason in proposal.unparseable]
+            task_plans += [TaskPlan.none_found(reason) for reason in proposal.no_plan]
             trial.say(f"step {done}: concretizing {len(task_plans)} task plans")
             with trial.phase("concretize"):
                 concrete = concretize(

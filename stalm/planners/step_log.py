@@ -70,6 +70,7 @@ def task_plan_record(plan: ConcretePlan, root_literals: Iterable[GroundLiteral])
         "index": plan.index,
         "actions": [action_json(action) for action in plan.task_plan.actions],
         "unparseable": plan.task_plan.unparseable,
+        "no_plan": plan.task_plan.no_plan,
         "reached_goal": plan.reached_goal,
         "kind": figure5_kind(plan, root_literals),
         "concretize_kind": plan.failure,

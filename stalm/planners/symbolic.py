@@ -193,7 +193,7 @@ class SymbolicProposer:
             )
         return Proposal(
             plans=tuple(plans),
-            unparseable=tuple(reasons[:1]) if not plans else (),
+            no_plan=tuple(reasons[:1]) if not plans else (),
             calls=0,
             seconds=time.perf_counter() - start,
         )

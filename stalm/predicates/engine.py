@@ -23,6 +23,11 @@ Base paths start from the problem's initial robot pose, not the robot's current 
 literals do not depend on where the robot last stood: the robot changes rooms only through an
 open door, and an open door occludes nothing.
 
+A computation is bounded by a deadline (:mod:`stalm.predicates.deadline`), asked between
+samples: once it has passed, :meth:`PredicateEngine.compute` and :meth:`PredicateEngine.update`
+raise :exc:`~stalm.predicates.deadline.DeadlinePassed` and return nothing, so a partly
+computed cache never passes for a state's predicates.
+
 An engine built with ``occlusion=False`` computes only the symbolic literals (HandAvailable,
 RobotHolding, IsClosed, AtPosition) and plans no motion at all: what a prompt without
 occlusion predicates (Table 4's ablation) shows, at what that prompt really costs. The search
@@ -38,6 +43,7 @@ from stalm.geometry.directions import RELATIVE_DIRECTIONS
 from stalm.motion.base_motion import BasePlanner
 from stalm.motion.manipulation import PARKED
 from stalm.motion.sweeps import ArmSegment, ObjectAt, SweptMotion, sweep_near
+from stalm.predicates.deadline import Deadline, DeadlinePassed, check
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.samples import (
     MotionSamples,
@@ -45,8 +51,9 @@ from stalm.predicates.samples import (
     PlacementSample,
     PredicateSettings,
 )
+from stalm.predicates.symbolic import add_symbolic
 from stalm.world.problem import Problem
-from stalm.world.relations import direction_between, supporting_region
+from stalm.world.relations import direction_between
 from stalm.world.scene import Sim
 from stalm.world.spec import RegionSpec
 from stalm.world.state import Grasp, ObjectPose, State
@@ -104,28 +111,56 @@ class PredicateEngine:
         self._extent = self.samples.hands.extent
 
     # ------------------------------------------------------------------ public
-    def compute(self, state: State) -> PredicateCache:
-        """All literals of ``state`` from scratch."""
+    def compute(self, state: State, deadline: Deadline | None = None) -> PredicateCache:
+        """All literals of ``state`` from scratch; :exc:`DeadlinePassed` once ``deadline``
+        (None: none) has passed between two samples."""
         if not self.occlusion:
             return PredicateCache(state=state, literals=self._symbolic(state))
+        try:
+            return self._compute(state, deadline)
+        except DeadlinePassed:
+            self._prepare_world(state)  # the sim as a finished computation leaves it
+            raise
+
+    def update(
+        self,
+        cache: PredicateCache,
+        action: ActionTuple,
+        state: State,
+        deadline: Deadline | None = None,
+    ) -> PredicateCache:
+        """The literals of ``state``, reached from ``cache.state`` by the feasible ``action``
+        (a discrete action of :mod:`stalm.domain.actions`); :exc:`DeadlinePassed` once
+        ``deadline`` (None: none) has passed between two samples. ``cache`` is not changed."""
+        if not self.occlusion:
+            return PredicateCache(state=state, literals=self._symbolic(state))
+        try:
+            return self._update(cache, action, state, deadline)
+        except DeadlinePassed:
+            self._prepare_world(state)
+            raise
+
+    def _compute(self, state: State, deadline: Deadline | None) -> PredicateCache:
         cache = PredicateCache(state=state, literals=frozenset())
         self._prepare_world(state)
         for region in self.spec.regions:
+            check(deadline)
             cache.base[region.name] = self.samples.base_motion(region)
         for name, pose in state.poses:
+            check(deadline)
             cache.picks[name] = self.samples.pick_record(name, pose)
         self._refresh_grasps(cache)
         for obj in cache.grasps:
             for region in self.spec.regions:
-                cache.placements[(obj, region.name)] = self._placements(cache, obj, region)
-        cache.literals = self._derive(cache)
+                cache.placements[(obj, region.name)] = self._placements(
+                    cache, obj, region, deadline
+                )
+        cache.literals = self._derive(cache, deadline)
         return cache
 
-    def update(self, cache: PredicateCache, action: ActionTuple, state: State) -> PredicateCache:
-        """The literals of ``state``, reached from ``cache.state`` by the feasible ``action``
-        (a discrete action of :mod:`stalm.domain.actions`)."""
-        if not self.occlusion:
-            return PredicateCache(state=state, literals=self._symbolic(state))
+    def _update(
+        self, cache: PredicateCache, action: ActionTuple, state: State, deadline: Deadline | None
+    ) -> PredicateCache:
         new = PredicateCache(
             state=state,
             literals=frozenset(),
@@ -141,19 +176,20 @@ class PredicateEngine:
             new.picks.pop(obj, None)
             self._forget_object(new, obj)
             self._refresh_grasps(new)
-            self._resample_placements_of(new, obj)
+            self._resample_placements_of(new, obj, deadline)
         elif operator == "place":
             obj = arguments[0]
             self._forget_object(new, obj)
-            self._resweep_near(new, obj, state.pose(obj))
+            self._resweep_near(new, obj, state.pose(obj), deadline)
+            check(deadline)
             new.picks[obj] = self.samples.pick_record(obj, state.pose(obj))
             self._refresh_grasps(new)
-            self._resample_placements_of(new, obj)
+            self._resample_placements_of(new, obj, deadline)
             new.targeted = {k: v for k, v in new.targeted.items() if k[2] != obj}
         else:
             # an open door is no obstacle: the derivation below stops counting it
             self._refresh_grasps(new)
-        new.literals = self._derive(new)
+        new.literals = self._derive(new, deadline)
         new.swept_motions += cache.swept_motions
         return new
 
@@ -181,17 +217,25 @@ class PredicateEngine:
                 cache.grasps[obj] = (record.grasp, record.yaw_offset)
 
     def _placements(
-        self, cache: PredicateCache, obj: str, region: RegionSpec
+        self, cache: PredicateCache, obj: str, region: RegionSpec, deadline: Deadline | None
     ) -> tuple[PlacementSample, ...]:
+        check(deadline)
         grasp, offset = cache.grasps[obj]
         return self.samples.placements(obj, grasp, offset, region)
 
     def _targeted(
-        self, cache: PredicateCache, obj: str, direction: str, ref: str, region: RegionSpec
+        self,
+        cache: PredicateCache,
+        obj: str,
+        direction: str,
+        ref: str,
+        region: RegionSpec,
+        deadline: Deadline | None,
     ) -> tuple[PlacementSample, ...]:
         """Placements in ``direction`` of ``ref``, sampled once per state the key holds in."""
         key = (obj, direction, ref)
         if key not in cache.targeted:
+            check(deadline)
             grasp, offset = cache.grasps[obj]
             cache.targeted[key] = self.samples.targeted(
                 obj, grasp, offset, direction, ref, cache.state.pose(ref), region
@@ -221,7 +265,9 @@ class PredicateEngine:
             if k[0] != obj
         }
 
-    def _resweep_near(self, cache: PredicateCache, obj: str, pose: ObjectPose) -> None:
+    def _resweep_near(
+        self, cache: PredicateCache, obj: str, pose: ObjectPose, deadline: Deadline | None
+    ) -> None:
         """Test motions passing near ``obj``'s new pose against it, and it alone."""
         body = self.sim.bodies.objects[obj]
 
@@ -230,6 +276,7 @@ class PredicateEngine:
         def again(motion: SweptMotion) -> SweptMotion:
             if not motion.near(pose.x, pose.y, radius):
                 return motion
+            check(deadline)
             cache.swept_motions += 1
             self.sim.place_object(obj, pose)
             hit = sweep_near(self.sim, motion, body, pose.x, pose.y, radius)
@@ -264,48 +311,28 @@ class PredicateEngine:
             else:
                 self.sim.place_object(moved, PARKED)
 
-    def _resample_placements_of(self, cache: PredicateCache, obj: str) -> None:
+    def _resample_placements_of(
+        self, cache: PredicateCache, obj: str, deadline: Deadline | None
+    ) -> None:
         cache.placements = {k: v for k, v in cache.placements.items() if k[0] != obj}
         cache.targeted = {k: v for k, v in cache.targeted.items() if k[0] != obj}
         if obj in cache.grasps:
             for region in self.spec.regions:
-                cache.placements[(obj, region.name)] = self._placements(cache, obj, region)
+                cache.placements[(obj, region.name)] = self._placements(
+                    cache, obj, region, deadline
+                )
 
     # ------------------------------------------------------------------ literals
     def _symbolic(self, state: State) -> frozenset[GroundLiteral]:
         """The literals that need no motion planning: hand, doors, AtPosition."""
         literals: set[GroundLiteral] = set()
-        self._symbolic_into(state, literals)
+        add_symbolic(self.spec, state, literals)
         return frozenset(literals)
 
-    def _symbolic_into(self, state: State, literals: set[GroundLiteral]) -> dict[str, str]:
-        """Add the symbolic literals of ``state``; return each resting object's region."""
-        if state.held is None:
-            literals.add(GroundLiteral("HandAvailable"))
-        else:
-            literals.add(GroundLiteral("RobotHolding", (state.held.obj,)))
-        for door in self.spec.doors:
-            if not state.is_open(door.name):
-                literals.add(GroundLiteral("IsClosed", (door.name,)))
-        regions_of: dict[str, str] = {}
-        for name, pose in state.poses:
-            support = supporting_region(self.spec, pose)
-            if support is not None:
-                regions_of[name] = support
-                literals.add(GroundLiteral("AtPosition", (name, "on", support)))
-        for name, support in regions_of.items():
-            for other, other_support in regions_of.items():
-                if other != name and other_support == support:
-                    direction = direction_between(
-                        self.spec.region(support), state.pose(name), state.pose(other)
-                    )
-                    literals.add(GroundLiteral("AtPosition", (name, direction, other)))
-        return regions_of
-
-    def _derive(self, cache: PredicateCache) -> frozenset[GroundLiteral]:
+    def _derive(self, cache: PredicateCache, deadline: Deadline | None) -> frozenset[GroundLiteral]:
         state = cache.state
         literals: set[GroundLiteral] = set()
-        regions_of = self._symbolic_into(state, literals)
+        regions_of = add_symbolic(self.spec, state, literals)
         obstacles = self._obstacles(state)
         cache.unreachable = set()
         for obj, record in cache.picks.items():
@@ -332,7 +359,7 @@ class PredicateEngine:
                             if direction_between(region, s.pose, ref_pose) == direction
                         )
                         if not matching:
-                            matching = self._targeted(cache, obj, direction, ref, region)
+                            matching = self._targeted(cache, obj, direction, ref, region, deadline)
                         self._place_literals(
                             cache, literals, obstacles, obj, direction, ref, region, matching
                         )

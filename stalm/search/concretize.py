@@ -5,8 +5,8 @@ the plan at its first infeasible step or at the horizon; stop everything at the 
 that satisfies the goal. Every step is recorded (state, discrete action, κ key, outcome), so
 WarmUpTree can add exactly what was explored to the search tree without paying T again.
 
-Failed plans are classified as in the paper's Figure 5 (§4.4), plus one kind for replies the
-caller could not read:
+Failed plans are classified as in the paper's Figure 5 (§4.4), plus two kinds for a plan the
+caller does not have:
 
 * ``precondition_violation`` — a step's symbolic precondition is false in the state it is
   tried in (the model ignored the state or its own earlier steps);
@@ -14,7 +14,10 @@ caller could not read:
   the prompt cannot convey: occlusion, size, reachability);
 * ``partially_achieved_goal`` — every step tried was feasible but the goal does not hold
   (also when the horizon cut the plan; see :attr:`ConcretePlan.truncated`);
-* ``unparseable`` — no plan to try (the caller passes an empty plan with its reason).
+* ``unparseable`` — a model's reply that could not be read (the caller passes an empty plan
+  with the parser's reason);
+* ``no_plan`` — a planning proposer (the symbolic one) found no plan: not a misread reply but
+  a search that came back empty (an empty plan with the planner's reason).
 
 These are the transition's kinds. Figure 5 counts a plan whose first step the prompt's own
 predicates call occluded as a precondition violation too; planners count failures through
@@ -41,33 +44,46 @@ FailureKind = Literal[
     "lack_of_3d_understanding",
     "partially_achieved_goal",
     "unparseable",
+    "no_plan",
 ]
 FAILURE_KINDS: tuple[FailureKind, ...] = (
     "precondition_violation",
     "lack_of_3d_understanding",
     "partially_achieved_goal",
     "unparseable",
+    "no_plan",
 )
 
 
 @dataclass(frozen=True)
 class TaskPlan:
-    """A task plan: discrete actions in order, or why the caller has none (``unparseable``).
+    """A task plan: discrete actions in order, or why the caller has none.
 
     A reply the parser could not read still counts as one of the batch's plans (Figure 5
-    reports how many of them there were), so it is passed as an empty plan with its reason.
+    reports how many of them there were), so it is passed as an empty plan with its reason
+    (``unparseable``). So is a planning proposer's search that found no plan (``no_plan``),
+    which is no misread reply and is counted apart.
     """
 
     actions: tuple[DiscreteAction, ...]
     unparseable: str | None = None
+    no_plan: str | None = None
 
     def __post_init__(self) -> None:
         if self.unparseable is not None and self.actions:
             raise ValueError("a TaskPlan marked unparseable must have no actions")
+        if self.no_plan is not None and (self.actions or self.unparseable is not None):
+            raise ValueError("a TaskPlan marked no_plan must have no actions and be no reply")
 
     @staticmethod
     def unreadable(reason: str) -> TaskPlan:
+        """A model's reply the parser could not read, as a plan (kind ``unparseable``)."""
         return TaskPlan((), reason)
+
+    @staticmethod
+    def none_found(reason: str) -> TaskPlan:
+        """A planning proposer's search that found no plan, as a plan (kind ``no_plan``)."""
+        return TaskPlan((), no_plan=reason)
 
 
 @dataclass(frozen=True)
@@ -179,6 +195,8 @@ def _concretize_one(
     backtracks: int = 0,
 ) -> ConcretePlan:
     if not task_plan.actions:
+        if task_plan.no_plan is not None:
+            return ConcretePlan(index, task_plan, (), False, "no_plan", task_plan.no_plan)
         reason = task_plan.unparseable or "the task plan is empty"
         return ConcretePlan(index, task_plan, (), False, "unparseable", reason)
     actions = task_plan.actions

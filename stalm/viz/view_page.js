@@ -226,6 +226,9 @@
     if (p.unparseable) {
       actions.appendChild(el("span", "unreadable reply: " + p.unparseable, "chip failed"));
     }
+    if (p.no_plan) {
+      actions.appendChild(el("span", "no plan found: " + p.no_plan, "chip failed"));
+    }
     (p.actions || []).forEach(function (a, i) {
       let cls = "untried";
       if (p.failed_step === i) cls = "failed";

@@ -11,6 +11,7 @@ from stalm.experiments.report import (
     build_table,
     csv_table,
     failure_shares,
+    markdown_failures,
     markdown_table,
     write_report,
 )
@@ -74,6 +75,22 @@ def test_failure_shares_sum_to_one_per_row_and_problem() -> None:
     assert list(shares) == [("stalm", "P1")]
     assert shares[("stalm", "P1")]["precondition_violation"] == 0.75
     assert shares[("stalm", "P1")]["lack_of_3d_understanding"] == 0.25
+
+
+def test_no_plan_is_its_own_kind_and_old_records_keep_their_unparseable() -> None:
+    """The symbolic proposer's "no plan found" is ``no_plan`` in new records; an older record
+    counted it as ``unparseable`` and still reports as it was written."""
+    records = [
+        _record("o", "stalm-symbolic", "P3", False, 30.0, llm_plan_failures={"unparseable": 1}),
+        _record("n", "stalm-symbolic", "P3", False, 30.0, llm_plan_failures={"no_plan": 1}),
+        _record("l", "stalm-symbolic", "P3", False, 30.0, llm_plan_failures={"no_plan": 2}),
+    ]
+    share = failure_shares(records)[("stalm-symbolic", "P3")]
+    assert share["no_plan"] == 0.75 and share["unparseable"] == 0.25
+    header = markdown_failures(failure_shares(records)).splitlines()[0]
+    assert header == "| Method | Problem | unparseable | no plan |"
+    # without a no_plan anywhere, the table has no such column (old reports are unchanged)
+    assert "no plan" not in markdown_failures(failure_shares(records[:1]))
 
 
 def test_rows_follow_the_papers_order_whatever_finished_first() -> None:

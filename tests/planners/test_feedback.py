@@ -155,4 +155,5 @@ def test_a_fast_downward_time_out_is_an_empty_proposal_not_an_exception(
         problem, problem.initial_state, initial_literals("P2"), 3, seed=0
     )
     assert proposal.plans == ()
-    assert proposal.unparseable and "time limit" in proposal.unparseable[0]
+    assert proposal.no_plan and "time limit" in proposal.no_plan[0]
+    assert proposal.unparseable == ()

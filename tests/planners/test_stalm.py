@@ -9,6 +9,7 @@ import pytest
 
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.mdp import Domain
+from stalm.planners.proposers import Proposal
 from stalm.planners.replay import replay_plan, replay_result_json
 from stalm.planners.stalm import StalmPlanner, StalmSettings
 from stalm.planners.uct import UctPlanner
@@ -184,3 +185,24 @@ def test_the_progress_rule_executes_the_best_action_that_leads_to_goal_progress(
     assert _best_promising_action(tree, GoalCountDouble({})) is None
     # progress is counted against the root: a root that already has the conjunct gains nothing
     assert _best_promising_action(tree, GoalCountDouble({"s0": 1, "sg": 1})) is None
+
+
+class NoPlanProposerDouble:
+    """A planning proposer's double whose every search comes back empty (as Fast Downward's
+    does on an unsolvable abstraction)."""
+
+    name = "no-plan-test-double"
+
+    def propose(self, problem, state, literals, n, seed, deadline=None) -> Proposal:
+        return Proposal(plans=(), no_plan=("the abstraction has no plan to the goal",))
+
+
+def test_a_proposer_that_found_no_plan_counts_as_no_plan_not_unparseable(problems) -> None:
+    """Figure 5 tells a search that found nothing from a reply that could not be read."""
+    settings = StalmSettings(search=SearchSettings(budget=2), occlusion_predicates=False)
+    result = StalmPlanner(NoPlanProposerDouble(), settings).solve(problems["P2"], 0, 1.5)
+    assert result.llm_plan_failures.get("no_plan", 0) >= 1
+    assert "unparseable" not in result.llm_plan_failures
+    first = result.details["step_log"][0]["proposals"][0]["plans"][0]
+    assert first["kind"] == "no_plan" and first["unparseable"] is None
+    assert first["no_plan"] == "the abstraction has no plan to the goal"

@@ -74,7 +74,7 @@ def test_past_the_deadline_no_fast_downward_runs_and_no_plan_is_proposed(
     proposal = SymbolicProposer().propose(
         problem, problem.initial_state, [], 5, seed=0, deadline=time.monotonic() - 1.0
     )
-    assert proposal.plans == () and proposal.unparseable == ()
+    assert proposal.plans == () and proposal.unparseable == () and proposal.no_plan == ()
 
 
 def test_fast_downward_cut_short_by_the_deadline_is_a_timeout_not_an_error(
@@ -90,8 +90,9 @@ def test_fast_downward_cut_short_by_the_deadline_is_a_timeout_not_an_error(
     proposal = SymbolicProposer().propose(
         problem, problem.initial_state, [], 5, seed=0, deadline=time.monotonic() + 0.05
     )
-    assert proposal.plans == () and proposal.unparseable == ()
+    assert proposal.plans == () and proposal.unparseable == () and proposal.no_plan == ()
     # without a deadline the limit that ran out is the proposer's own: no plan from that call,
     # and the reason is kept (test_feedback.py runs the real translator into its limit)
     own = SymbolicProposer(time_limit_s=0.01).propose(problem, problem.initial_state, [], 5, 0)
-    assert own.plans == () and "time limit" in own.unparseable[0]
+    assert own.plans == () and "time limit" in own.no_plan[0]
+    assert own.unparseable == ()  # no reply was misread: the planner found no plan

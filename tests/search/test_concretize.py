@@ -89,6 +89,22 @@ def test_unparseable_plans_carry_no_actions() -> None:
         TaskPlan((move("a"),), "garbled")
 
 
+def test_a_plan_a_planner_did_not_find_is_no_plan_not_an_unreadable_reply() -> None:
+    reason = "the predicate abstraction of this state has no plan to the goal"
+    result = concretize(
+        warm_chain().as_mdp(),
+        state("s0"),
+        [TaskPlan.none_found(reason), TaskPlan.unreadable("garbled")],
+        np.random.default_rng(0),
+    )
+    assert result.failures == ((0, "no_plan"), (1, "unparseable"))
+    assert result.plans[0].detail == reason and result.plans[1].detail == "garbled"
+    with pytest.raises(ValueError, match="no_plan"):
+        TaskPlan((move("a"),), no_plan=reason)
+    with pytest.raises(ValueError, match="no_plan"):
+        TaskPlan((), "garbled", no_plan=reason)
+
+
 P5_GRILL_LAST = (
     Open("kitchen_door"),
     Pick("sprite"),

@@ -78,6 +78,8 @@ def test_figure5_kind(actions, step: int, kind: str, expected: str) -> None:
 def test_unparseable_partial_and_successful_plans_keep_their_kind() -> None:
     unreadable = ConcretePlan(0, TaskPlan.unreadable("garbled"), (), False, "unparseable")
     assert figure5_kind(unreadable, OCCLUDED) == "unparseable"
+    none_found = ConcretePlan(0, TaskPlan.none_found("unsolvable"), (), False, "no_plan")
+    assert figure5_kind(none_found, OCCLUDED) == "no_plan"
     done = ConcretePlan(1, TaskPlan((Pick("salter"),)), (), True, None)
     assert figure5_kind(done, OCCLUDED) is None
 
@@ -93,6 +95,7 @@ def test_p2_plans_that_start_with_an_occluded_pick_count_as_precondition_violati
         TaskPlan((Pick("salter"),)),  # boxed in by bottle2, bottle3 and the door: occluded
         TaskPlan((Open("kitchen_door"), Pick("salter"))),  # fails at step 1, not judged
         TaskPlan.unreadable("no plan list (plan = [...]) in the reply"),
+        TaskPlan.none_found("Fast Downward found no plan in its time limit"),
     ]
     result = concretize(domain, episode.state, plans, np.random.default_rng(0))
     # the transition alone calls the first a lack of 3D understanding
@@ -100,6 +103,7 @@ def test_p2_plans_that_start_with_an_occluded_pick_count_as_precondition_violati
         (0, "lack_of_3d_understanding"),
         (1, "lack_of_3d_understanding"),
         (2, "unparseable"),
+        (3, "no_plan"),
     )
     with pytest.raises(RuntimeError, match="predicates"):
         episode.count_failures(result)
@@ -109,10 +113,12 @@ def test_p2_plans_that_start_with_an_occluded_pick_count_as_precondition_violati
         "precondition_violation",
         "lack_of_3d_understanding",
         "unparseable",
+        "no_plan",
     )
     episode.count_failures(result)
     assert dict(episode.failures) == {
         "precondition_violation": 1,
         "lack_of_3d_understanding": 1,
         "unparseable": 1,
+        "no_plan": 1,
     }
