@@ -13,6 +13,8 @@ import itertools
 import math
 from collections.abc import Iterable, Sequence
 
+import numpy as np
+
 from stalm.world.scene import Sim
 
 MAX_JOINT_STEP = 0.03
@@ -27,10 +29,11 @@ def interpolate(start: Sequence[float], end: Sequence[float]) -> list[Conf]:
     lift_steps = abs(end[0] - start[0]) / MAX_LIFT_STEP
     joint_steps = max(abs(b - a) for a, b in zip(start[1:], end[1:], strict=True)) / MAX_JOINT_STEP
     steps = max(1, math.ceil(max(lift_steps, joint_steps)))
-    return [
-        tuple(a + (b - a) * i / steps for a, b in zip(start, end, strict=True))
-        for i in range(steps + 1)
-    ]
+    # the same IEEE operations as a + (b - a) * i / steps element by element, in one array op
+    first, last = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    fractions = np.arange(steps + 1, dtype=float)[:, None]
+    dense = first + (last - first) * fractions / steps
+    return [tuple(row) for row in dense.tolist()]
 
 
 def interpolate_waypoints(waypoints: Sequence[Sequence[float]]) -> list[Conf]:

@@ -125,10 +125,13 @@ def sweep(sim: Sim, segments: Iterable[Segment]) -> tuple[frozenset[int], Fan]:
             sim.attach(segment.held)
             ignore = {sim.bodies.objects[segment.ignore]} if segment.ignore is not None else set()
             sim.set_base_only(segment.base)
+            # the base stands still while the arm moves: what it touches is tested once
+            base, moving = sim.robot_bodies()[0], sim.robot_bodies()[1:]
+            hits |= sim.contacts_of([base], ignore | set(moving))
             for conf in segment.confs:
-                sim.set_arm(segment.base, conf[0], conf[1:])
-                hits |= sim.robot_contacts(ignore)
                 mount = robot_model.arm_mount(segment.base, conf[0])
+                sim.set_arm_at(mount, conf[1:])
+                hits |= sim.contacts_of(moving, ignore | {base})
                 hand = sim.gripper_pose()[0]
                 fan.append((mount.x, mount.y, hand[0], hand[1]))
         else:

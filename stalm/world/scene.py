@@ -7,6 +7,13 @@ the robot are given mass so Bullet's broadphase reports their contacts with the 
 answer "what touches the robot?" for the whole world. Bodies that ever move (objects, doors,
 the robot) must be non-static for another reason too: Bullet refreshes broadphase bounds only
 of non-static bodies, so a static body moved by a reset would be tested at its old place.
+
+A query only asks what touches some bodies, yet a plain ``performCollisionDetection`` also
+computes every other contact in the world: each object resting on its table, side by side
+with its neighbours, a door in its frame. :meth:`Sim.contacts_of` therefore first sets the
+collision filter masks so that only pairs with one of the queried bodies are tested (the
+contacts reported for those bodies are the same); on a crowded table this makes a query about
+three times cheaper.
 """
 
 from __future__ import annotations
@@ -22,6 +29,11 @@ from stalm.geometry.transforms import Pose3, quat_yaw, yaw_quat
 from stalm.world import robot as robot_model
 from stalm.world.spec import GRILL_HANDLE_REACH, DoorSpec, ObjectSpec, ProblemSpec, RegionSpec
 from stalm.world.state import Grasp, ObjectPose, RobotConf, State
+
+QUERIED_GROUP = 2
+"""Collision filter group of the bodies a query asks about; they collide with the rest only."""
+REST_GROUP = 1
+"""Collision filter group of every other body; they collide with the queried bodies only."""
 
 PENETRATION_TOLERANCE = 1e-3
 """Contacts shallower than this (m) are touching, not colliding: objects resting on a surface
@@ -70,6 +82,8 @@ class Sim:
         self.collision_checks = 0
         self._held: Grasp | None = None
         self._held_yaw_offset = 0.0
+        self._gripper: Pose3 | None = None
+        """The grasp point's world pose in the arm's current configuration, once asked for."""
         self._robot = RobotConf.make((0.0, 0.0, 0.0), robot_model.CARRY_LIFT, robot_model.CARRY_ARM)
         self._build()
         self._static_ids = frozenset(self.bodies.walls.values()) | frozenset(
@@ -77,6 +91,13 @@ class Sim:
         )
         self._object_by_body = {bid: name for name, bid in self.bodies.objects.items()}
         self._door_by_body = {bid: name for name, bid in self.bodies.doors.items()}
+        self._links = {
+            body: tuple(range(-1, p.getNumJoints(body, physicsClientId=self.client)))
+            for body in range(p.getNumBodies(physicsClientId=self.client))
+        }
+        """Every body's link indices (-1 is the base), for setting collision masks."""
+        self._queried: frozenset[int] | None = None
+        """The bodies the collision masks are set to test (None: masks not set yet)."""
 
     # ------------------------------------------------------------------ building
     def _build(self) -> None:
@@ -310,8 +331,11 @@ class Sim:
         self._robot = conf
 
     def set_arm(self, base: tuple[float, float, float], lift: float, arm: Sequence[float]) -> None:
+        self.set_arm_at(robot_model.arm_mount(base, lift), arm)
+
+    def set_arm_at(self, mount: robot_model.ArmMount, arm: Sequence[float]) -> None:
+        """:meth:`set_arm` with the arm's mount already computed (a sweep needs it anyway)."""
         c = self.client
-        mount = robot_model.arm_mount(base, lift)
         p.resetBasePositionAndOrientation(
             self.bodies.arm, [mount.x, mount.y, mount.z], yaw_quat(mount.yaw), physicsClientId=c
         )
@@ -319,6 +343,7 @@ class Sim:
         p.resetJointStatesMultiDof(
             self.bodies.arm, ARM_JOINT_LIST, [[value] for value in arm], physicsClientId=c
         )
+        self._gripper = None
         if self._held is not None:
             self._place_held()
 
@@ -333,6 +358,7 @@ class Sim:
         p.resetBasePositionAndOrientation(
             self.bodies.arm, [mount.x, mount.y, mount.z], yaw_quat(mount.yaw), physicsClientId=c
         )
+        self._gripper = None
         if self._held is not None:
             self._place_held()
 
@@ -344,12 +370,19 @@ class Sim:
         return RobotConf.make((pos[0], pos[1], quat_yaw(orn)), mount_pos[2], arm)
 
     def gripper_pose(self) -> Pose3:
-        """World pose of the grasp point between the fingertips."""
-        state = p.getLinkState(
-            self.bodies.arm, GRASP_LINK, computeForwardKinematics=True, physicsClientId=self.client
-        )
-        pos, orn = state[4], state[5]
-        return (pos[0], pos[1], pos[2]), (orn[0], orn[1], orn[2], orn[3])
+        """World pose of the grasp point between the fingertips (computed once per arm
+        configuration: a sweep asks for it to carry the held object and again for its
+        reach lines)."""
+        if self._gripper is None:
+            state = p.getLinkState(
+                self.bodies.arm,
+                GRASP_LINK,
+                computeForwardKinematics=True,
+                physicsClientId=self.client,
+            )
+            pos, orn = state[4], state[5]
+            self._gripper = (pos[0], pos[1], pos[2]), (orn[0], orn[1], orn[2], orn[3])
+        return self._gripper
 
     def _place_held(self) -> None:
         assert self._held is not None
@@ -403,8 +436,9 @@ class Sim:
         """Bodies penetrating any of ``bodies`` now (excluding each other and ``ignore``)."""
         c = self.client
         self.collision_checks += 1
-        p.performCollisionDetection(physicsClientId=c)
         group = set(bodies)
+        self._query(frozenset(group))
+        p.performCollisionDetection(physicsClientId=c)
         skip = group | set(ignore)
         hits: set[int] = set()
         for body in group:
@@ -415,6 +449,21 @@ class Sim:
                 if contact[8] < -PENETRATION_TOLERANCE:
                     hits.add(other)
         return hits
+
+    def _query(self, bodies: frozenset[int]) -> None:
+        """Set the collision masks so that the next ``performCollisionDetection`` tests only
+        pairs of one of ``bodies`` with another body (see the module docstring). Only the
+        bodies whose role changed since the last query are touched."""
+        if bodies == self._queried:
+            return
+        changed = self._links.keys() if self._queried is None else self._queried ^ bodies
+        for body in changed:
+            group, mask = (
+                (QUERIED_GROUP, REST_GROUP) if body in bodies else (REST_GROUP, QUERIED_GROUP)
+            )
+            for link in self._links[body]:
+                p.setCollisionFilterGroupMask(body, link, group, mask, physicsClientId=self.client)
+        self._queried = bodies
 
     def touches(self, bodies: Iterable[int], other: int) -> bool:
         """Does any of ``bodies`` penetrate ``other``? A pairwise query: much cheaper than a
