@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import pickle
 import shutil
 import tempfile
 from collections.abc import Iterator
@@ -77,23 +78,43 @@ def rng() -> np.random.Generator:
     return np.random.default_rng(7)
 
 
-@pytest.fixture(scope="session")
-def initial_predicates(domain_factory) -> Iterator[object]:
-    """The predicate cache of each problem's initial state, computed once per session.
+def _run_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder of this test run shared by its pytest-xdist workers (each worker's base
+    temporary folder sits in the run's own one); the run's base folder without xdist."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
 
-    A full computation costs 8-15 s of CPU, so the tests that need an initial state's
-    predicates share this one (under pytest-xdist, once per worker). The cache is read only:
-    ``PredicateEngine.update`` returns a new cache and leaves its argument as it was.
+
+@pytest.fixture(scope="session")
+def initial_predicates(domain_factory, tmp_path_factory) -> Iterator[object]:
+    """The predicate cache of each problem's initial state, computed once per test run.
+
+    A full computation costs 5-15 s of CPU and a dozen tests need one, so they share it: the
+    first worker to ask computes it (under a file lock) and leaves it, pickled, in the run's
+    shared folder for the other workers. The cache is read only: ``PredicateEngine.update``
+    returns a new cache and leaves its argument as it was.
     """
+    from filelock import FileLock
+
     from stalm.predicates.engine import PredicateCache, PredicateEngine
 
     computed: dict[str, PredicateCache] = {}
+    folder = _run_folder(tmp_path_factory)
+
+    def compute(name: str) -> PredicateCache:
+        domain = domain_factory(name)
+        engine = PredicateEngine(domain.problem, domain.sim, domain.base_planner)
+        return engine.compute(domain.problem.initial_state)
 
     def get(name: str) -> PredicateCache:
         if name not in computed:
-            domain = domain_factory(name)
-            engine = PredicateEngine(domain.problem, domain.sim, domain.base_planner)
-            computed[name] = engine.compute(domain.problem.initial_state)
+            path = folder / f"initial-predicates-{name}.pickle"
+            with FileLock(f"{path}.lock"):
+                if path.exists():
+                    computed[name] = pickle.loads(path.read_bytes())
+                else:
+                    computed[name] = compute(name)
+                    path.write_bytes(pickle.dumps(computed[name]))
         return computed[name]
 
     yield get
