@@ -8,6 +8,7 @@ task plans a proposer offered. ``to_json`` is what ``stalm solve --json`` writes
 
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass, field
 from typing import Any, Protocol
 
@@ -19,7 +20,10 @@ from stalm.world.state import State
 
 @dataclass(frozen=True)
 class PhaseTimes:
-    """Wall-clock seconds by phase (they add up to at most ``total``)."""
+    """Wall-clock seconds by phase (they add up to at most ``total``), and the CPU seconds
+    the trial used (``cpu``: this process and the Fast Downward runs it waited for). Wall time
+    depends on what else the machine runs; CPU time much less, so a run made while the cores
+    were shared can still be compared with a quiet one."""
 
     predicates: float = 0.0
     llm: float = 0.0
@@ -27,6 +31,13 @@ class PhaseTimes:
     tree_search: float = 0.0
     execution: float = 0.0
     total: float = 0.0
+    cpu: float = 0.0
+
+
+def cpu_seconds() -> float:
+    """User and system CPU seconds of this process and of its children that have ended."""
+    times = os.times()
+    return times.user + times.system + times.children_user + times.children_system
 
 
 @dataclass(frozen=True)

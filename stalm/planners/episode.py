@@ -19,7 +19,7 @@ from typing import Any
 
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
-from stalm.planners.base import Counters, PhaseTimes, PlanResult
+from stalm.planners.base import Counters, PhaseTimes, PlanResult, cpu_seconds
 from stalm.planners.predicate_memo import PredicateMemo
 from stalm.planners.proposers import Proposal
 from stalm.planners.replay import replay_plan
@@ -115,6 +115,8 @@ class Episode:
     queries: list[QueryRecord] = field(default_factory=list)
     memo: PredicateMemo | None = None
     """The trial's predicates by state (set by the first :meth:`predicates`)."""
+    cpu_start: float = field(default_factory=cpu_seconds)
+    """:func:`cpu_seconds` when the trial began."""
 
     @staticmethod
     def begin(problem: Problem, time_budget_s: float | None) -> Episode:
@@ -233,7 +235,13 @@ class Episode:
             plan=tuple(self.executed),
             states=tuple(self.states),
             times=PhaseTimes(
-                clock.predicates, clock.llm, clock.concretize, clock.tree, clock.execution, total
+                clock.predicates,
+                clock.llm,
+                clock.concretize,
+                clock.tree,
+                clock.execution,
+                total,
+                cpu_seconds() - self.cpu_start,
             ),
             counters=Counters(
                 llm_calls=self.llm_calls,

@@ -111,3 +111,17 @@ def test_truncated_plans_are_recorded_in_the_result(problems, domain_factory) ->
     result = episode.finish(domain_factory("P2"), "stalm", 0, "horizon")
     assert result.details["truncated_plans"] == 1
     assert result.details["llm_queries"][0]["truncated_plans"] == 1
+
+
+def test_a_trial_records_the_cpu_seconds_it_used_apart_from_wall_time(
+    problems, domain_factory
+) -> None:
+    domain = domain_factory("P2")
+    episode = Episode.begin(problems["P2"], 60.0)
+    busy_until = time.process_time() + 0.3
+    while time.process_time() < busy_until:
+        pass
+    time.sleep(0.3)  # waiting uses wall time, not CPU time
+    times = episode.finish(domain, "stalm", 0, "horizon").times
+    assert 0.3 <= times.cpu < 0.3 + 0.25
+    assert times.total >= 0.6

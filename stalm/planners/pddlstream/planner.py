@@ -17,6 +17,7 @@ Downward (translate + search) → ``tree_search``, stream sampling and motion pl
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -29,7 +30,7 @@ from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.planners.base import Counters, PhaseTimes, PlanResult
+from stalm.planners.base import Counters, PhaseTimes, PlanResult, cpu_seconds
 from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, Streams
 from stalm.planners.pddlstream.execute import build_action, learn_from
 from stalm.planners.pddlstream.knowledge import Knowledge
@@ -61,12 +62,15 @@ class PDDLStreamPlanner:
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
         start_time = time.monotonic()
+        cpu_start = cpu_seconds()
         budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
         domain = Domain.create(problem)
         try:
-            return self._run(domain, problem, seed, start_time, start_time + budget)
+            result = self._run(domain, problem, seed, start_time, start_time + budget)
         finally:
             domain.close()
+        cpu = cpu_seconds() - cpu_start
+        return dataclasses.replace(result, times=dataclasses.replace(result.times, cpu=cpu))
 
     def _run(
         self, domain: Domain, problem: Problem, seed: int, start_time: float, deadline: float
