@@ -34,10 +34,12 @@ from typing import Any
 import numpy as np
 
 from stalm.domain.actions import DiscreteAction
-from stalm.planners.config import PlannerConfig, Progress, llm_backend, use_constraint
-from stalm.planners.online import Decision, OnlinePlanner, Trial
+from stalm.domain.mdp import RewardSettings
+from stalm.planners.config import Progress, llm_backend, use_constraint
+from stalm.planners.online import Decision, OnlinePlanner, Sampling, Trial
 from stalm.planners.predicate_memo import Timing
 from stalm.planners.proposers import LLMProposer, Proposal, TaskPlanProposer
+from stalm.planners.settings import DEFAULT_SIMS, RunSettings
 from stalm.predicates.literals import GroundLiteral
 from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
 from stalm.search.mdp import SearchMDP
@@ -50,7 +52,7 @@ from stalm.world.state import State
 LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
 QueryHook = Callable[[Proposal], None]
 
-LLM_MCTS_BUDGET = 35
+LLM_MCTS_BUDGET = DEFAULT_SIMS["llm-mcts"]
 """N_budget of LLM-MCTS in the paper's §4.2."""
 
 
@@ -257,6 +259,8 @@ class LlmMctsSettings:
     """Keep the executed child's subtree, and its nodes' priors, as the next step's tree
     (beyond the paper, through the online base as STaLM does). Off: LLM-MCTS as published,
     a new tree every real step whose nodes ask the model anew."""
+    rewards: RewardSettings = field(default_factory=RewardSettings)
+    """R's constants (the settings tree's ``rewards``)."""
 
 
 @dataclass
@@ -267,6 +271,11 @@ class LlmMctsPlanner(OnlinePlanner):
     proposer: TaskPlanProposer
     settings: LlmMctsSettings = field(default_factory=LlmMctsSettings)
     progress: Progress | None = None
+    sampling: Sampling = field(default_factory=Sampling)
+
+    @property
+    def rewards(self) -> RewardSettings:
+        return self.settings.rewards
 
     @property
     def occlusion(self) -> bool:
@@ -347,14 +356,16 @@ class LlmMctsSteps:
         return details
 
 
-def build_llm_mcts(config: PlannerConfig, progress: Progress | None) -> LlmMctsPlanner:
-    """The registry's builder: the configured (cached) backend, the paper's prompt and budget."""
-    backend = llm_backend(config)
-    proposer = LLMProposer(backend, config.prompt, constrained=use_constraint(config, backend))
-    budget = config.sims if config.sims is not None else LLM_MCTS_BUDGET
-    settings = LlmMctsSettings(
-        search=SearchSettings(budget=budget),
-        samples=config.batch,
-        occlusion_predicates=config.prompt.occlusion_predicates,
+def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> LlmMctsPlanner:
+    """The registry's builder: the configured (cached) backend, the paper's prompt and budget,
+    N_batch replies per prior."""
+    backend = llm_backend(settings)
+    proposer = LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
+    search = settings.search
+    mcts = LlmMctsSettings(
+        search=search.search_settings(search.budget_for("llm-mcts")),
+        samples=search.batch,
+        occlusion_predicates=settings.prompt.occlusion_predicates,
+        rewards=settings.rewards,
     )
-    return LlmMctsPlanner(proposer, settings, progress=progress)
+    return LlmMctsPlanner(proposer, mcts, progress=progress, sampling=Sampling.of(settings))

@@ -229,13 +229,15 @@ def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
     assert isinstance(planner, LlmMctsPlanner) and planner.name == "llm-mcts"
     assert planner.settings.search.budget == 35 and planner.settings.search.c == 50.0
     assert planner.settings.samples == 5 and planner.settings.uniform_weight == 0.5
-    custom = build_llm_mcts(PlannerConfig(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3), None)
+    custom = build_llm_mcts(
+        PlannerConfig(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3).to_settings(), None
+    )
     assert custom.settings.search.budget == 7 and custom.settings.samples == 3
     assert planner.settings.occlusion_predicates
     no_occlusion = PlannerConfig(
         llm="http://127.0.0.1:9/v1#m", prompt=PromptOptions(occlusion_predicates=False)
     )
-    assert not build_llm_mcts(no_occlusion, None).settings.occlusion_predicates
+    assert not build_llm_mcts(no_occlusion.to_settings(), None).settings.occlusion_predicates
 
 
 class CachedProposerDouble:

@@ -27,6 +27,7 @@ import numpy as np
 from stalm.domain.mdp import Domain
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
+from stalm.domain.samplers import SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
 from stalm.planners.base import Counters, PhaseTimes, PlanResult
@@ -50,6 +51,8 @@ class PDDLStreamPlanner:
 
     settings: AdaptiveSettings = field(default_factory=AdaptiveSettings)
     progress: Progress | None = None
+    samplers: SamplerSettings = field(default_factory=SamplerSettings)
+    """ψ's settings, which the streams sample with."""
 
     @property
     def name(self) -> str:
@@ -62,7 +65,7 @@ class PDDLStreamPlanner:
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
         start_time = time.monotonic()
         budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
-        domain = Domain.create(problem)
+        domain = Domain.create(problem, sampler_settings=self.samplers)
         try:
             return self._run(domain, problem, seed, start_time, start_time + budget)
         finally:
