@@ -1,7 +1,11 @@
 """The settings tree on the command line: ``--show-settings``, ``--settings`` and ``--set`` in
-their order, and bad keys as one error line."""
+their order, bad keys as one error line, the tree in every result record, and ``stalm
+rerun`` giving the recorded plan again from a record alone."""
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import pytest
 import yaml
@@ -10,6 +14,22 @@ from stalm.planners.registry import RunSettings
 from stalm.planners.settings_io import from_mapping
 from tests.cli.test_bad_input import one_error_line
 from tests.cli_runner import run_cli
+
+DATA = Path(__file__).resolve().parents[1] / "planners" / "data"
+
+SHORT_UCT = [
+    "--planner",
+    "uct",
+    "--sims",
+    "3",
+    "--seed",
+    "2",
+    "--set",
+    "budget.horizon=1",
+    "--set",
+    "execution.rule=best_q",
+]
+"""A uct trial of one real step whose outcome does not depend on the clock ('best_q')."""
 
 
 @pytest.fixture(autouse=True)
@@ -81,3 +101,73 @@ def test_a_settings_file_that_is_not_a_mapping_is_named(monkeypatch, capsys, tmp
     run.write_text("- search.c: 1\n")
     assert run_cli(monkeypatch, "solve", "P2", "--settings", str(run), "--show-settings") == 2
     assert "run.yaml: settings must be a mapping" in one_error_line(capsys.readouterr().err)
+
+
+def test_a_solve_record_keeps_the_tree_and_reruns_to_the_same_plan(
+    monkeypatch, capsys, tmp_path
+) -> None:
+    first, second = tmp_path / "first.json", tmp_path / "second.json"
+    run_cli(monkeypatch, "solve", "P2", *SHORT_UCT, "--json", str(first))
+    record = json.loads(first.read_text())
+    settings = from_mapping(record["settings"], "record")
+    assert settings.search.sims == 3 and settings.budget.horizon == 1
+    assert settings.execution.rule == "best_q" and settings.budget.time_budget_s == 300.0
+    assert len(record["plan"]) == 1, "one real step (budget.horizon=1)"
+    capsys.readouterr()
+    assert run_cli(monkeypatch, "rerun", str(first), "--json", str(second)) == 0
+    assert "the plan is the record's (1 actions)" in capsys.readouterr().out
+    again = json.loads(second.read_text())
+    assert again["plan"] == record["plan"] and again["seed"] == 2
+    assert again["settings"] == record["settings"]
+    # a record whose plan is not what the run gives: exit 1, saying from where
+    record["plan"][0]["discrete"] = ["open", "nowhere"]
+    first.write_text(json.dumps(record))
+    assert run_cli(monkeypatch, "rerun", str(first)) == 1
+    assert "differs from the record's from action 1" in capsys.readouterr().out
+
+
+def test_an_experiment_record_reruns_to_the_same_plan(monkeypatch, capsys, tmp_path) -> None:
+    results = tmp_path / "t.jsonl"
+    args = ["experiment", "table2", "--problems", "P2", "--planners", "uct", "--trials", "1"]
+    short = ["--sims", "3", "--set", "budget.horizon=1", "--set", "execution.rule=best_q"]
+    assert run_cli(monkeypatch, *args, *short, "--results", str(results)) == 0
+    [record] = [json.loads(line) for line in results.read_text().splitlines()]
+    assert record["settings"]["budget"] == {"time_budget_s": 300.0, "horizon": 1}
+    assert record["config"]["settings"] == {"budget.horizon": 1}, "a non-default tree: own key"
+    capsys.readouterr()
+    assert run_cli(monkeypatch, "rerun", str(results), "--key", record["key"][:6]) == 0
+    assert "the plan is the record's" in capsys.readouterr().out
+
+
+def test_a_record_without_settings_is_still_replayed_but_cannot_be_rerun(
+    monkeypatch, capsys
+) -> None:
+    old = DATA / "p2_result.json"  # written before records kept their settings
+    assert "settings" not in json.loads(old.read_text())
+    assert run_cli(monkeypatch, "replay", str(old)) == 0
+    capsys.readouterr()
+    assert run_cli(monkeypatch, "rerun", str(old)) == 2
+    assert "has no settings tree" in one_error_line(capsys.readouterr().err)
+
+
+def test_rerun_refuses_a_record_of_another_problem(monkeypatch, capsys, tmp_path) -> None:
+    record = {
+        "problem": "P2",
+        "planner": "uct",
+        "seed": 0,
+        "problem_hash": "0" * 16,
+        "settings": {},
+        "plan": [],
+    }
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(record))
+    assert run_cli(monkeypatch, "rerun", str(path)) == 2
+    assert "pass the problem file it ran on with --problem" in one_error_line(
+        capsys.readouterr().err
+    )
+    lines = tmp_path / "r.jsonl"
+    lines.write_text(
+        json.dumps({**record, "key": "aa"}) + "\n" + json.dumps({**record, "key": "ab"})
+    )
+    assert run_cli(monkeypatch, "rerun", str(lines), "--key", "a") == 2
+    assert "2 records; choose one with --key" in one_error_line(capsys.readouterr().err)
