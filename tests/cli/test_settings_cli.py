@@ -171,3 +171,11 @@ def test_rerun_refuses_a_record_of_another_problem(monkeypatch, capsys, tmp_path
     )
     assert run_cli(monkeypatch, "rerun", str(lines), "--key", "a") == 2
     assert "2 records; choose one with --key" in one_error_line(capsys.readouterr().err)
+
+
+def test_old_results_without_settings_still_make_a_report(monkeypatch, capsys, tmp_path) -> None:
+    old = Path(__file__).resolve().parents[2] / "docs" / "results" / "issue13" / "before.jsonl"
+    records = [json.loads(line) for line in old.read_text().splitlines()]
+    assert records and all("settings" not in r for r in records)
+    assert run_cli(monkeypatch, "report", str(old), "--out", str(tmp_path)) == 0
+    assert "| stalm-symbolic | Success rate |" in (tmp_path / "before.md").read_text()
