@@ -17,7 +17,7 @@ from stalm.errors import StalmError
 from stalm.planners.base import PlanResult
 from stalm.planners.feedback import FailedStep
 from stalm.planners.proposers import FeedbackProposer, LLMProposer, Proposal, TaskPlanProposer
-from stalm.planners.registry import PlannerConfig, build_planner, planners
+from stalm.planners.registry import PlannerConfig, RunSettings, build_planner, planners
 from stalm.planners.replay import ReplayReport, replay_plan
 from stalm.planners.stalm import StalmPlanner, StalmSettings
 from stalm.planners.symbolic import SymbolicProposer
@@ -37,6 +37,7 @@ __all__ = [
     "Problem",
     "Proposal",
     "ReplayReport",
+    "RunSettings",
     "StalmError",
     "StalmPlanner",
     "StalmSettings",

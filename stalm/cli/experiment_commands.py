@@ -18,6 +18,7 @@ from rich.progress import (
 )
 
 from stalm.cli.display import printable, shown
+from stalm.cli.settings_options import SET_HELP, SETTINGS_HELP, command_settings, given
 from stalm.errors import StalmError
 
 commands = typer.Typer()
@@ -58,15 +59,18 @@ def experiment_command(
     time_budget: Annotated[
         float | None, typer.Option("--time-budget", help="One budget (s) for every problem.")
     ] = None,
-    sims: Annotated[int | None, typer.Option(help="N_budget (default: the paper's).")] = None,
+    sims: Annotated[
+        int | None, typer.Option(help="N_budget (search.sims; default: the paper's).")
+    ] = None,
     workers: Annotated[int, typer.Option(help="Trials run at once, one process each.")] = 1,
     ray: Annotated[
         str | None,
         typer.Option("--ray", help="Run on a Ray cluster: 'auto', 'ray://host:10001' or 'local'."),
     ] = None,
-    cache: Annotated[str, typer.Option(help="Reply cache mode: use, refresh, off, replay.")] = (
-        "use"
-    ),
+    cache: Annotated[
+        str | None,
+        typer.Option(help="Reply cache mode (llm.cache): use (default), refresh, off, replay."),
+    ] = None,
     results: Annotated[
         Path | None,
         typer.Option(help="The JSON-lines results file (default results/NAME.jsonl)."),
@@ -74,22 +78,22 @@ def experiment_command(
     report_dir: Annotated[
         Path | None, typer.Option(help="Write the report here when done (default: beside).")
     ] = None,
+    settings_file: Annotated[
+        Path | None,
+        typer.Option("--settings", help=SETTINGS_HELP + " A row's own settings still win."),
+    ] = None,
     overrides: Annotated[
         list[str] | None,
-        typer.Option(
-            "--set",
-            help="Planner setting KEY=VALUE for every row (repeatable): reuse_tree, execution "
-            "(progress|best_q), kappa_tries, goal_atom_lost, goal_relations_only, feedback, "
-            "sims, batch.",
-        ),
+        typer.Option("--set", help=SET_HELP + " For every row; a row's own settings still win."),
     ] = None,
 ) -> None:
     """Run a paper experiment's trials; re-running the same command resumes it."""
     from stalm.experiments.results_log import ResultsLog
     from stalm.experiments.runner import run_experiment
     from stalm.experiments.suites import build_plan, trial_specs
-    from stalm.planners.registry import PlannerConfig, with_overrides
 
+    flags = given(sims=("search.sims", sims), cache=("llm.cache", cache))
+    base = command_settings(settings_file, flags, overrides or ()).settings
     plan = build_plan(
         name,
         planners=_names(planners),
@@ -99,7 +103,7 @@ def experiment_command(
         master_seed=seed,
         budget_scale=budget_scale,
         time_budget_s=time_budget,
-        base=with_overrides(PlannerConfig(sims=sims, cache_mode=cache), overrides or ()),
+        base=base,
     )
     specs = trial_specs(plan)
     log = ResultsLog(results or Path("results") / f"{name}.jsonl")

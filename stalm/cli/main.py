@@ -18,6 +18,7 @@ from stalm.cli import (
     experiment_commands,
     llm_commands,
     predicate_commands,
+    rerun_commands,
     solve_commands,
     view_commands,
     world_commands,
@@ -38,6 +39,7 @@ for module in (
     world_commands,
     predicate_commands,
     solve_commands,
+    rerun_commands,
     view_commands,
 ):
     app.add_typer(module.commands)

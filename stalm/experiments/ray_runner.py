@@ -33,9 +33,13 @@ def trial_with_cache_copy(spec: TrialSpec, cache_bytes: bytes) -> RemoteResult:
         path = Path(folder) / "replies.sqlite"
         path.write_bytes(cache_bytes)
         before = len(ReplyCache(path))
-        config = dataclasses.replace(spec.arm.config, cache_file=str(path))
+        settings = spec.arm.config
+        llm = dataclasses.replace(settings.llm, cache_file=str(path))
+        config = dataclasses.replace(settings, llm=llm)
         local = dataclasses.replace(spec, arm=dataclasses.replace(spec.arm, config=config))
         record = run_trial(local)
+        if "settings" in record:  # the copy is gone after this task: record the caller's file
+            record["settings"]["llm"]["cache_file"] = settings.llm.cache_file
         cache = ReplyCache(path)
         if len(cache) == before:
             return record, None

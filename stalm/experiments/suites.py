@@ -14,7 +14,8 @@ from dataclasses import dataclass, replace
 from stalm.errors import StalmError
 from stalm.experiments.trials import Arm, TrialSpec, check_problem_name, derive_seed
 from stalm.llm.prompt import PromptOptions
-from stalm.planners.registry import PlannerConfig, planner_entry
+from stalm.planners.registry import RunSettings, planner_entry
+from stalm.planners.settings_io import with_values
 
 EXPERIMENTS = ("table2", "table3", "table4", "figure5")
 TABLE2_PLANNERS = (
@@ -27,12 +28,13 @@ TABLE2_PLANNERS = (
     "stalm",
 )
 ARM_ALIASES: dict[str, tuple[str, dict[str, object]]] = {
-    "stalm-symbolic": ("stalm", {"proposer": "symbolic"}),
-    "stalm-feedback": ("stalm", {"feedback": True}),
+    "stalm-symbolic": ("stalm", {"proposer.kind": "symbolic"}),
+    "stalm-feedback": ("stalm", {"execution.feedback": True}),
 }
 """Row names that are a planner with other settings: STaLM with the Fast Downward proposer
 (no model at all; geometric feedback on), and STaLM with a model and geometric feedback
-(beyond the paper; the paper's ``stalm`` row has none)."""
+(beyond the paper; the paper's ``stalm`` row has none). An arm's own settings override the
+command's (``--settings``, ``--set``)."""
 PAPER_TRIALS = 50
 ALL_PROBLEMS = ("P1", "P2", "P3", "P4", "P5", "P6")
 
@@ -64,11 +66,11 @@ class ExperimentPlan:
             raise StalmError(f"experiment {self.name} has no planners to run")
 
 
-def arm_for(name: str, base: PlannerConfig, label: str | None = None) -> Arm:
+def arm_for(name: str, base: RunSettings, label: str | None = None) -> Arm:
     """The arm a ``--planners`` entry names (a planner or an alias such as stalm-symbolic)."""
     planner, changes = ARM_ALIASES.get(name, (name, {}))
     planner_entry(planner)  # an unknown name fails here, naming the choices
-    return Arm(label or name, planner, replace(base, **changes))  # type: ignore[arg-type]
+    return Arm(label or name, planner, with_values(base, changes.items(), f"row {name}"))
 
 
 def build_plan(
@@ -81,7 +83,7 @@ def build_plan(
     master_seed: int = 0,
     budget_scale: float = 1.0,
     time_budget_s: float | None = None,
-    base: PlannerConfig | None = None,
+    base: RunSettings | None = None,
 ) -> ExperimentPlan:
     """The arms of experiment ``name`` (see the module docstring) with the caller's choices.
 
@@ -92,17 +94,20 @@ def build_plan(
     """
     if name not in EXPERIMENTS:
         raise StalmError(f"unknown experiment '{name}' (available: {', '.join(EXPERIMENTS)})")
-    base = base or PlannerConfig()
-    first_llm = llms[0] if llms else base.llm
-    base = replace(base, llm=first_llm)
+    base = base or RunSettings()
+    first_llm = llms[0] if llms else base.llm.backend
+    base = replace(base, llm=replace(base.llm, backend=first_llm))
+    if time_budget_s is None:  # --set budget.time_budget_s is --time-budget (and one key)
+        time_budget_s = base.budget.time_budget_s
+    base = replace(base, budget=replace(base.budget, time_budget_s=None))
     arms: list[Arm]
     if name == "table2":
         arms = [arm_for(p, base) for p in planners or TABLE2_PLANNERS]
     elif name == "table3":
-        models = llms or (base.llm or "embedded",)
+        models = llms or (base.llm.backend or "embedded",)
         arms = []
         for model in models:
-            config = replace(base, llm=model)
+            config = replace(base, llm=replace(base.llm, backend=model))
             for planner in planners or ("stalm", "stalm-no-uct"):
                 arms.append(arm_for(planner, config, f"{planner} [{model}]"))
     elif name == "table4":

@@ -1,9 +1,11 @@
 """One trial of an experiment: what to run (a :class:`TrialSpec`) and running it.
 
 A spec is plain, picklable data that names everything a trial's outcome depends on: the arm
-(planner name and :class:`PlannerConfig`), the problem *text* (so a worker on another machine
-runs exactly the caller's problem file), the trial index, its seed and its time budget. Its
-``key`` hashes all of that, which is how a re-run recognises finished trials.
+(planner name and settings tree, :class:`~stalm.planners.settings.RunSettings`), the problem
+*text* (so a worker on another machine runs exactly the caller's problem file), the trial
+index, its seed and its time budget. Its ``key`` hashes all of that, which is how a re-run
+recognises finished trials; a trial's record keeps its resolved settings tree whole, so
+``stalm rerun`` can run it again from the record alone.
 
 Seeds come from one master seed, the problem and the trial index, but not the planner: every
 planner meets the same seeds on a problem (common random numbers make the comparison fairer).
@@ -24,7 +26,9 @@ from pathlib import Path
 from typing import Any
 
 from stalm.errors import StalmError
-from stalm.planners.registry import PlannerConfig, build_planner
+from stalm.planners.registry import PlannerConfig, RunSettings, build_planner, resolve
+from stalm.planners.settings import FLAT_NAMES, with_budget
+from stalm.planners.settings_io import changed, to_dict
 from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
 
 RECORD_VERSION = 1
@@ -42,11 +46,11 @@ def derive_seed(master_seed: int, problem: str, trial: int) -> int:
 
 @dataclass(frozen=True)
 class Arm:
-    """One row of a table: a label, the planner it runs and that planner's configuration."""
+    """One row of a table: a label, the planner it runs and that planner's settings tree."""
 
     label: str
     planner: str
-    config: PlannerConfig = dataclasses.field(default_factory=PlannerConfig)
+    config: RunSettings = dataclasses.field(default_factory=RunSettings)
 
 
 @dataclass(frozen=True)
@@ -81,11 +85,21 @@ def _sha(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _config_json(config: PlannerConfig) -> dict[str, Any]:
-    data = dataclasses.asdict(config)
-    # where and how replies are fetched does not change what they are
+KEYLESS = ("llm.cache", "llm.cache_file")
+"""Where and how replies are fetched does not change what they are: not in the key."""
+
+
+def _config_json(settings: RunSettings) -> dict[str, Any]:
+    """The settings as a trial's key sees them: the flat :class:`PlannerConfig` choices as
+    keys were computed before the settings tree (so existing results logs still resume),
+    and, only if the tree differs from its defaults elsewhere, those other settings."""
+    data = dataclasses.asdict(PlannerConfig.from_settings(settings))
     data.pop("cache_mode")
     data.pop("cache_file")
+    flat = {*FLAT_NAMES.values(), "prompt.occlusion_predicates", "prompt.ask_challenges"}
+    others = {k: v for k, v in changed(settings).items() if k not in flat and k not in KEYLESS}
+    if others:
+        data["settings"] = others
     return data
 
 
@@ -132,9 +146,17 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
         problem_file = Path(folder) / f"{spec.problem}.yaml"
         problem_file.write_text(spec.problem_yaml, encoding="utf-8")
         problem = load_problem(problem_file)
-        planner = build_planner(spec.arm.planner, spec.arm.config)
+        arm_settings = spec.arm.config
+        budget = dataclasses.replace(arm_settings.budget, time_budget_s=spec.time_budget_s)
+        settings = resolve(
+            spec.arm.planner, dataclasses.replace(arm_settings, budget=budget), problem
+        )
+        base["settings"] = to_dict(settings)
+        planner = build_planner(spec.arm.planner, settings)
         try:
-            result = planner.solve(problem, spec.seed, spec.time_budget_s)
+            result = planner.solve(
+                with_budget(problem, settings.budget), spec.seed, settings.budget.time_budget_s
+            )
         except Exception as error:  # kept as data, see the docstring
             user_error = isinstance(error, StalmError)
             tail = "" if user_error else "".join(traceback.format_exception(error)[-6:])

@@ -1,20 +1,25 @@
-"""What a user can choose about a planner, as plain data, and the backend it names.
+"""The common choices about a planner as flat data, and the backend the settings name.
 
-A :class:`PlannerConfig` is plain, picklable data (it crosses process and Ray boundaries);
-the language-model backend is made from it inside the process that plans
-(:func:`llm_backend`), because a loaded model cannot be shipped. These types sit below every
-planner module and the registry, so a planner imports them from here and the registry imports
-the planners: imports go one way.
+:class:`PlannerConfig` is the short way to say the usual choices (``PlannerConfig(proposer=
+"symbolic", sims=30)``); it stands for the settings tree it names
+(:meth:`PlannerConfig.to_settings`, :class:`~stalm.planners.settings.RunSettings`), which holds
+every setting and is what the planners are built from. Both are plain, picklable data (they
+cross process and Ray boundaries); the language-model backend is made from the tree inside the
+process that plans (:func:`llm_backend`), because a loaded model cannot be shipped. These
+types sit below every planner module and the registry, so a planner imports them from here and
+the registry imports the planners: imports go one way.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields, replace
 
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.prompt import PromptOptions
+from stalm.planners.settings import FLAT_NAMES, RunSettings
+from stalm.planners.settings_io import with_values
 
 Progress = Callable[[str], None]
 """Where a planner reports what it is doing (``stalm solve`` prints it)."""
@@ -22,7 +27,9 @@ Progress = Callable[[str], None]
 
 @dataclass(frozen=True)
 class PlannerConfig:
-    """What a user can choose about a planner; ``None`` means the planner's paper default."""
+    """The usual choices about a planner, flat; ``None`` means the planner's paper default.
+    Each field is one key of the settings tree (:data:`~stalm.planners.settings.FLAT_NAMES`;
+    ``prompt`` is its ``prompt`` section), with the tree's default."""
 
     llm: str | None = None
     """Backend spec as ``--llm`` takes it (None: $STALM_LLM or the embedded model)."""
@@ -72,56 +79,36 @@ class PlannerConfig:
         if self.kappa_tries < 1:
             raise StalmError(f"kappa_tries must be at least 1, got {self.kappa_tries}")
 
+    def to_settings(self) -> RunSettings:
+        """The settings tree these flat choices name (everything else at its default)."""
+        values = [
+            (FLAT_NAMES[f.name], getattr(self, f.name))
+            for f in fields(self)
+            if f.name in FLAT_NAMES
+        ]
+        return replace(with_values(RunSettings(), values, "PlannerConfig"), prompt=self.prompt)
 
-SETTABLE: dict[str, type] = {
-    "feedback": bool,
-    "reuse_tree": bool,
-    "execution": str,
-    "kappa_tries": int,
-    "backtracks": int,
-    "goal_atom_lost": float,
-    "goal_relations_only": bool,
-    "sims": int,
-    "batch": int,
-}
-"""The :class:`PlannerConfig` fields ``--set KEY=VALUE`` reaches, with their types."""
-
-
-def with_overrides(config: PlannerConfig, pairs: Sequence[str]) -> PlannerConfig:
-    """``config`` with ``KEY=VALUE`` overrides (``--set``), each checked by name and type."""
-    changes: dict[str, object] = {}
-    for pair in pairs:
-        key, sep, text = pair.partition("=")
-        key = key.strip().replace("-", "_")
-        if not sep or key not in SETTABLE:
-            raise StalmError(
-                f"--set {pair!r}: expected KEY=VALUE with KEY one of {', '.join(SETTABLE)}"
-            )
-        kind = SETTABLE[key]
-        text = text.strip()
-        value: object
-        try:
-            if kind is bool:
-                if text.lower() not in ("true", "false", "1", "0", "on", "off"):
-                    raise ValueError(text)
-                value = text.lower() in ("true", "1", "on")
-            else:
-                value = kind(text)
-        except ValueError:
-            raise StalmError(f"--set {pair!r}: {key} takes a {kind.__name__}") from None
-        changes[key] = value
-    return replace(config, **changes)  # type: ignore[arg-type]
+    @classmethod
+    def from_settings(cls, settings: RunSettings) -> PlannerConfig:
+        """The flat choices of a tree (what the tree holds beyond them is dropped)."""
+        values = {
+            name: getattr(getattr(settings, path.split(".")[0]), path.split(".")[1])
+            for name, path in FLAT_NAMES.items()
+        }
+        return cls(prompt=settings.prompt, **values)
 
 
-def llm_backend(config: PlannerConfig) -> LLMBackend:
+def llm_backend(settings: RunSettings) -> LLMBackend:
     """The configured backend behind the reply cache."""
     from stalm.llm.backends import make_backend
     from stalm.llm.cache import CachedBackend, ReplyCache
 
-    cache = ReplyCache(config.cache_file) if config.cache_file is not None else None
-    return CachedBackend(make_backend(config.llm), cache, mode=config.cache_mode)
+    llm = settings.llm
+    cache = ReplyCache(llm.cache_file) if llm.cache_file is not None else None
+    return CachedBackend(make_backend(llm.backend), cache, mode=llm.cache)
 
 
-def use_constraint(config: PlannerConfig, backend: LLMBackend) -> bool:
+def use_constraint(settings: RunSettings, backend: LLMBackend) -> bool:
     """The embedded model rarely writes a parseable plan unconstrained; servers are free."""
-    return backend.name == "embedded" if config.constrained is None else config.constrained
+    constrained = settings.llm.constrained
+    return backend.name == "embedded" if constrained is None else constrained

@@ -26,10 +26,11 @@ from stalm.llm.backends.base import LLMBackend
 from stalm.llm.feedback_prompt import MAX_FAILED_PLANS, FailedPlan, with_feedback
 from stalm.llm.problem_prompt import problem_prompt
 from stalm.llm.prompt import PromptOptions
-from stalm.planners.config import PlannerConfig, Progress, llm_backend, use_constraint
-from stalm.planners.online import Decision, OnlinePlanner, Trial
+from stalm.planners.config import Progress, llm_backend, use_constraint
+from stalm.planners.online import Decision, OnlinePlanner, Sampling, Trial
 from stalm.planners.plan_queries import query_seed
 from stalm.planners.proposers import ask_for_task_plans
+from stalm.planners.settings import RunSettings
 from stalm.search import TaskPlan, concretize
 from stalm.search.concretize import ConcretePlan
 
@@ -65,6 +66,7 @@ class IterativeReplanningPlanner(OnlinePlanner):
     options: PromptOptions = field(default_factory=PromptOptions)
     settings: ReplanningSettings = field(default_factory=ReplanningSettings)
     progress: Progress | None = None
+    sampling: Sampling = field(default_factory=Sampling)
 
     @property
     def occlusion(self) -> bool:
@@ -161,13 +163,14 @@ class ReplanningRounds:
 
 
 def build_iterative_replanning(
-    config: PlannerConfig, progress: Progress | None
+    settings: RunSettings, progress: Progress | None
 ) -> IterativeReplanningPlanner:
     """The registry's builder: the configured (cached) backend and prompt options."""
-    backend = llm_backend(config)
+    backend = llm_backend(settings)
     return IterativeReplanningPlanner(
         backend,
-        constrained=use_constraint(config, backend),
-        options=config.prompt,
+        constrained=use_constraint(settings, backend),
+        options=settings.prompt,
         progress=progress,
+        sampling=Sampling.of(settings),
     )

@@ -10,8 +10,11 @@ node's first selection on. So the model is called once per *new node* -- up to o
 simulation, N_budget = 35 calls per real step -- the defining cost of the method, which the
 paper blames for its time-outs (§4.3); every call, its tokens and its seconds go into the
 result, with the number of calls of each real step. Priors are kept per state within one
-tree (a state reached twice in a tree is one node); each real step builds a new tree and asks
-again (``reuse_tree``, beyond the paper, keeps the executed child's subtree and its priors).
+tree (a state reached twice in a tree is one node). Between real steps the executed child's
+subtree is kept with its statistics and its nodes' priors, as for every online tree planner
+(``reuse_tree``, the settings tree's ``execution.reuse_tree``, on by default); a node the new
+step's search creates asks the model, as every new node does. With reuse off, each real step
+builds a new tree and asks again for every node.
 Everything else is STaLM's hybrid search without warm start: UCT over κ with progressive
 widening, random rollouts at new leaves, run online by
 :class:`~stalm.planners.online.OnlinePlanner` as every online method is.
@@ -34,23 +37,25 @@ from typing import Any
 import numpy as np
 
 from stalm.domain.actions import DiscreteAction
-from stalm.planners.config import PlannerConfig, Progress, llm_backend, use_constraint
-from stalm.planners.online import Decision, OnlinePlanner, Trial
+from stalm.domain.mdp import RewardSettings
+from stalm.planners.config import Progress, llm_backend, use_constraint
+from stalm.planners.online import Decision, OnlinePlanner, Sampling, Trial
 from stalm.planners.predicate_memo import Timing
 from stalm.planners.proposers import LLMProposer, Proposal, TaskPlanProposer
+from stalm.planners.settings import DEFAULT_SIMS, RunSettings
 from stalm.predicates.literals import GroundLiteral
 from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
 from stalm.search.mdp import SearchMDP
 from stalm.search.policies import ValueFunction
 from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
-from stalm.search.tree import Edge
+from stalm.search.tree import Edge, SearchTree
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
 LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
 QueryHook = Callable[[Proposal], None]
 
-LLM_MCTS_BUDGET = 35
+LLM_MCTS_BUDGET = DEFAULT_SIMS["llm-mcts"]
 """N_budget of LLM-MCTS in the paper's §4.2."""
 
 
@@ -145,6 +150,11 @@ class LLMPrior:
     def new_tree(self) -> None:
         """Forget every prior: the next search builds a new tree, whose nodes ask anew."""
         self._votes = {}
+
+    def keep_only(self, tree: SearchTree) -> None:
+        """Forget the priors of states that are not nodes of ``tree`` (the subtree kept after
+        a real step): a state the new search reaches outside it is a new node, which asks."""
+        self._votes = {state: votes for state, votes in self._votes.items() if state in tree}
 
     def prepare(self, state: State, actions: tuple[DiscreteAction, ...]) -> None:
         """Make sure ``state`` has its prior in this tree (asking the model if it has not)."""
@@ -253,10 +263,13 @@ class LlmMctsSettings:
     uniform_weight: float = 0.5
     occlusion_predicates: bool = True
     """Compute occlusion literals for the prompt (False when the prompt does not show them)."""
-    reuse_tree: bool = False
+    reuse_tree: bool = True
     """Keep the executed child's subtree, and its nodes' priors, as the next step's tree
-    (beyond the paper, through the online base as STaLM does). Off: LLM-MCTS as published,
-    a new tree every real step whose nodes ask the model anew."""
+    (the authors' loop, through the online base as every online tree planner does; the
+    settings tree's ``execution.reuse_tree``). Off: a new tree every real step whose nodes
+    ask the model anew."""
+    rewards: RewardSettings = field(default_factory=RewardSettings)
+    """R's constants (the settings tree's ``rewards``)."""
 
 
 @dataclass
@@ -267,6 +280,11 @@ class LlmMctsPlanner(OnlinePlanner):
     proposer: TaskPlanProposer
     settings: LlmMctsSettings = field(default_factory=LlmMctsSettings)
     progress: Progress | None = None
+    sampling: Sampling = field(default_factory=Sampling)
+
+    @property
+    def rewards(self) -> RewardSettings:
+        return self.settings.rewards
 
     @property
     def occlusion(self) -> bool:
@@ -312,8 +330,11 @@ class LlmMctsSteps:
         trial, prior, search = self.trial, self.prior, self.planner.settings.search
         trial.replans += 1
         trial.say(f"step {trial.done}: MCTS with an LLM prior, {search.budget} sims")
-        if not trial.reuse_tree:
+        tree = trial.tree_at(trial.state) if trial.reuse_tree else None
+        if tree is None:
             prior.new_tree()
+        else:
+            prior.keep_only(tree)
         prior.deadline = trial.episode.deadline
         calls_before = prior.stats.llm_calls
         with trial.phase("tree"):
@@ -326,7 +347,7 @@ class LlmMctsSteps:
                 depth0=trial.done,
                 deadline=trial.episode.deadline,
                 policies=self.policies,
-                tree=trial.tree_at(trial.state) if trial.reuse_tree else None,
+                tree=tree,
             )
         self.calls_per_step.append(prior.stats.llm_calls - calls_before)
         trial.simulations += result.counters.simulations
@@ -347,14 +368,17 @@ class LlmMctsSteps:
         return details
 
 
-def build_llm_mcts(config: PlannerConfig, progress: Progress | None) -> LlmMctsPlanner:
-    """The registry's builder: the configured (cached) backend, the paper's prompt and budget."""
-    backend = llm_backend(config)
-    proposer = LLMProposer(backend, config.prompt, constrained=use_constraint(config, backend))
-    budget = config.sims if config.sims is not None else LLM_MCTS_BUDGET
-    settings = LlmMctsSettings(
-        search=SearchSettings(budget=budget),
-        samples=config.batch,
-        occlusion_predicates=config.prompt.occlusion_predicates,
+def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> LlmMctsPlanner:
+    """The registry's builder: the configured (cached) backend, the paper's prompt and budget,
+    N_batch replies per prior, tree reuse as the other tree planners have it."""
+    backend = llm_backend(settings)
+    proposer = LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
+    search = settings.search
+    mcts = LlmMctsSettings(
+        search=search.search_settings(search.budget_for("llm-mcts")),
+        samples=search.batch,
+        occlusion_predicates=settings.prompt.occlusion_predicates,
+        reuse_tree=settings.execution.reuse_tree,
+        rewards=settings.rewards,
     )
-    return LlmMctsPlanner(proposer, settings, progress=progress)
+    return LlmMctsPlanner(proposer, mcts, progress=progress, sampling=Sampling.of(settings))

@@ -24,12 +24,15 @@ import numpy as np
 
 from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
+from stalm.domain.samplers import SamplerSettings
 from stalm.planners.base import PlanResult
 from stalm.planners.config import Progress
 from stalm.planners.episode import Episode
 from stalm.planners.predicate_memo import PredicateMemo
+from stalm.planners.settings import RunSettings
 from stalm.predicates.deadline import DeadlinePassed
 from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.predicates.samples import PredicateSettings
 from stalm.search import SearchTree
 from stalm.world.problem import Problem
 from stalm.world.scene import Sim
@@ -38,6 +41,19 @@ from stalm.world.state import State
 Decision = tuple[Action, ...] | str
 """What a decision returns: the actions to execute now (none: decide again from the same
 state), or a termination ('timeout', 'no_progress') that ends the trial."""
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """How a trial's domain draws κ (ψ's tries) and its predicate engine samples motions:
+    the settings tree's ``samplers`` and ``predicates`` sections, for every online planner."""
+
+    samplers: SamplerSettings = field(default_factory=SamplerSettings)
+    predicates: PredicateSettings = field(default_factory=PredicateSettings)
+
+    @classmethod
+    def of(cls, settings: RunSettings) -> Sampling:
+        return cls(settings.samplers, settings.predicates)
 
 
 @dataclass
@@ -124,13 +140,14 @@ class Decider(Protocol):
 class OnlinePlanner(ABC):
     """A planner that acts online: subclasses name the method and make its :class:`Decider`.
 
-    A subclass is a dataclass with a ``progress`` field; it may override :attr:`rewards`
-    (R's constants), :attr:`occlusion` (whether the trial's predicates include the occlusion
-    literals, which cost motion planning) and :attr:`reuse_tree`.
+    A subclass is a dataclass with a ``progress`` and a ``sampling`` field; it may override
+    :attr:`rewards` (R's constants), :attr:`occlusion` (whether the trial's predicates include
+    the occlusion literals, which cost motion planning) and :attr:`reuse_tree`.
     """
 
     name: ClassVar[str]
     progress: Progress | None
+    sampling: Sampling
 
     @property
     def rewards(self) -> RewardSettings:
@@ -157,10 +174,19 @@ class OnlinePlanner(ABC):
         """Plan and execute until the goal, the horizon or the time budget (None: the
         problem's), in a simulator of the trial's own that is always closed."""
         episode = Episode.begin(problem, time_budget_s)
-        domain = Domain(problem, Sim(problem.spec), reward_settings=self.rewards)
+        domain = Domain(
+            problem,
+            Sim(problem.spec),
+            sampler_settings=self.sampling.samplers,
+            reward_settings=self.rewards,
+        )
         try:
             engine = PredicateEngine(
-                problem, domain.sim, domain.base_planner, occlusion=self.occlusion
+                problem,
+                domain.sim,
+                domain.base_planner,
+                self.sampling.predicates,
+                occlusion=self.occlusion,
             )
             trial = Trial(
                 domain,

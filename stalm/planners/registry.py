@@ -1,57 +1,41 @@
-"""Every planner by name, built from one plain configuration.
+"""Every planner by name, built from one settings tree.
 
-``stalm solve --planner NAME`` and ``stalm experiment`` both go through :func:`build_planner`,
-so a planner is configured the same way wherever it runs. The registry sits above the planner
-modules and imports each one; what they share with it (:class:`PlannerConfig`, the backend a
-config names) lives below both, in :mod:`stalm.planners.config`.
+``stalm solve --planner NAME``, ``stalm rerun`` and ``stalm experiment`` all go through
+:func:`build_planner`, so a planner is configured the same way wherever it runs, from a
+:class:`~stalm.planners.settings.RunSettings` (or the flat
+:class:`~stalm.planners.config.PlannerConfig` that names one). The registry sits above the
+planner modules; its table holds one small builder per planner that imports the planner's
+module when it is called, so listing the planners (``stalm planners``, ``--help``) or
+resolving settings loads none of them. What the planners share with it lives below both:
+:mod:`stalm.planners.config` and :mod:`stalm.planners.settings`.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from stalm.domain.mdp import RewardSettings
 from stalm.errors import StalmError
 from stalm.planners.base import Planner
-from stalm.planners.config import (
-    SETTABLE,
-    PlannerConfig,
-    Progress,
-    llm_backend,
-    use_constraint,
-    with_overrides,
-)
-from stalm.planners.iterative_replanning import build_iterative_replanning
-from stalm.planners.llm_mcts import build_llm_mcts
-from stalm.planners.pddlstream import build_pddlstream_adaptive
-from stalm.planners.proposers import LLMProposer, TaskPlanProposer
-from stalm.planners.saycan import build_ep_saycan
-from stalm.planners.stalm import StalmPlanner
-from stalm.planners.stalm_no_uct import StalmNoUctPlanner
-from stalm.planners.symbolic import SymbolicProposer
-from stalm.planners.tree_step import StalmSettings
-from stalm.planners.uct import UCT_BUDGET, UctPlanner
-from stalm.planners.uct_hcount import UctHcountPlanner
-from stalm.search import SearchSettings
+from stalm.planners.config import PlannerConfig, Progress, llm_backend, use_constraint
+from stalm.planners.settings import RunSettings
+from stalm.world.problem import Problem
 
 __all__ = [
-    "SETTABLE",
     "PlannerConfig",
     "PlannerEntry",
     "Progress",
+    "RunSettings",
     "build_planner",
     "llm_backend",
     "planner_entry",
     "planners",
+    "resolve",
     "use_constraint",
-    "with_overrides",
 ]
 
-STALM_BUDGET = 30
-"""N_budget of STaLM (Appendix B)."""
-
-Builder = Callable[[PlannerConfig, Progress | None], Planner]
+Builder = Callable[[RunSettings, Progress | None], Planner]
 
 
 @dataclass(frozen=True)
@@ -64,48 +48,54 @@ class PlannerEntry:
     build: Builder
 
 
-def proposer_for(config: PlannerConfig) -> TaskPlanProposer:
-    """STaLM's proposer: the symbolic planner, or the configured (cached) language model."""
-    if config.proposer == "symbolic":
-        return SymbolicProposer(goal_relations_only=config.goal_relations_only)
-    backend = llm_backend(config)
-    return LLMProposer(backend, config.prompt, constrained=use_constraint(config, backend))
+# Each builder imports its planner's module only when a planner is built (see the module
+# docstring); the modules import nothing back from here.
+def _stalm(settings: RunSettings, progress: Progress | None) -> Planner:
+    from stalm.planners.stalm import build_stalm
+
+    return build_stalm(settings, progress)
 
 
-def tree_settings(config: PlannerConfig, *, proposes: bool) -> StalmSettings:
-    """The settings of the tree planners (STaLM's; UCT's when nothing ``proposes``)."""
-    budget = config.sims if config.sims is not None else (STALM_BUDGET if proposes else UCT_BUDGET)
-    feedback = config.feedback
-    if feedback is None:
-        feedback = config.proposer == "symbolic"
-    return StalmSettings(
-        n_batch=config.batch,
-        search=SearchSettings(budget=budget),
-        reuse_tree=config.reuse_tree,
-        feedback=feedback and proposes,
-        execution=config.execution,  # type: ignore[arg-type]
-        kappa_tries=config.kappa_tries,
-        backtracks=config.backtracks if config.backtracks is not None else (6 if feedback else 0),
-        rewards=RewardSettings(goal_atom_lost=config.goal_atom_lost),
-        # the symbolic proposer plans with occlusions whatever the prompt options say
-        occlusion_predicates=(config.proposer == "symbolic" or config.prompt.occlusion_predicates),
-    )
+def _stalm_no_uct(settings: RunSettings, progress: Progress | None) -> Planner:
+    from stalm.planners.stalm_no_uct import build_stalm_no_uct
+
+    return build_stalm_no_uct(settings, progress)
 
 
-def build_stalm(config: PlannerConfig, progress: Progress | None) -> StalmPlanner:
-    return StalmPlanner(proposer_for(config), tree_settings(config, proposes=True), progress)
+def _uct(settings: RunSettings, progress: Progress | None) -> Planner:
+    from stalm.planners.uct import build_uct
+
+    return build_uct(settings, progress)
 
 
-def build_stalm_no_uct(config: PlannerConfig, progress: Progress | None) -> StalmNoUctPlanner:
-    return StalmNoUctPlanner(proposer_for(config), tree_settings(config, proposes=True), progress)
+def _uct_hcount(settings: RunSettings, progress: Progress | None) -> Planner:
+    from stalm.planners.uct_hcount import build_uct_hcount
+
+    return build_uct_hcount(settings, progress)
 
 
-def build_uct(config: PlannerConfig, progress: Progress | None) -> UctPlanner:
-    return UctPlanner(tree_settings(config, proposes=False), progress)
+def _ep_saycan(settings: RunSettings, progress: Progress | None) -> Planner:
+    from stalm.planners.saycan import build_ep_saycan
+
+    return build_ep_saycan(settings, progress)
 
 
-def build_uct_hcount(config: PlannerConfig, progress: Progress | None) -> UctHcountPlanner:
-    return UctHcountPlanner(tree_settings(config, proposes=False), progress)
+def _iterative_replanning(settings: RunSettings, progress: Progress | None) -> Planner:
+    from stalm.planners.iterative_replanning import build_iterative_replanning
+
+    return build_iterative_replanning(settings, progress)
+
+
+def _llm_mcts(settings: RunSettings, progress: Progress | None) -> Planner:
+    from stalm.planners.llm_mcts import build_llm_mcts
+
+    return build_llm_mcts(settings, progress)
+
+
+def _pddlstream_adaptive(settings: RunSettings, progress: Progress | None) -> Planner:
+    from stalm.planners.pddlstream import build_pddlstream_adaptive
+
+    return build_pddlstream_adaptive(settings, progress)
 
 
 _ENTRIES: tuple[PlannerEntry, ...] = (
@@ -113,53 +103,53 @@ _ENTRIES: tuple[PlannerEntry, ...] = (
         "stalm",
         "STaLM: task plans from the proposer, Concretize, warm-started hybrid UCT (N_budget 30)",
         True,
-        build_stalm,
+        _stalm,
     ),
     PlannerEntry(
         "stalm-no-uct",
         "STaLM without UCT (Table 3): Concretize only, then the next action of the best plan",
         True,
-        build_stalm_no_uct,
+        _stalm_no_uct,
     ),
     PlannerEntry(
         "uct",
         "Hybrid UCT with random rollouts and no guidance (N_budget 35)",
         False,
-        build_uct,
+        _uct,
     ),
     PlannerEntry(
         "uct-hcount",
         "UCT whose leaf value is Appendix C's Hcount heuristic (N_budget 35)",
         False,
-        build_uct_hcount,
+        _uct_hcount,
     ),
     PlannerEntry(
         "ep-saycan",
         "SayCan with an empirical policy: 5 replies to a history-only prompt times precondition "
         "affordance, no search",
         True,
-        build_ep_saycan,
+        _ep_saycan,
     ),
     PlannerEntry(
         "iterative-replanning",
         "One plan per query; on failure re-ask with up to two failed plans and the failure "
         "(5 attempts, then one step)",
         True,
-        build_iterative_replanning,
+        _iterative_replanning,
     ),
     PlannerEntry(
         "llm-mcts",
         "MCTS with PUCT whose prior is the first actions of 5 replies at every new node "
         "(N_budget 35)",
         True,
-        build_llm_mcts,
+        _llm_mcts,
     ),
     PlannerEntry(
         "pddlstream-adaptive",
         "PDDLStream's adaptive algorithm: Fast Downward over sampled values as PDDL objects, "
         "failed samples fed back",
         False,
-        build_pddlstream_adaptive,
+        _pddlstream_adaptive,
     ),
 )
 
@@ -176,8 +166,41 @@ def planner_entry(name: str) -> PlannerEntry:
     return known[name]
 
 
+def asks_model(name: str, settings: RunSettings) -> bool:
+    """Whether planner ``name`` asks a language model under ``settings`` (STaLM with the
+    symbolic proposer does not)."""
+    symbolic = settings.proposer.kind == "symbolic" and name in ("stalm", "stalm-no-uct")
+    return planner_entry(name).uses_llm and not symbolic
+
+
+def resolve(name: str, settings: RunSettings, problem: Problem | None = None) -> RunSettings:
+    """``settings`` as planner ``name`` runs them (on ``problem``): every None decided
+    (:meth:`RunSettings.resolved`), and for a planner that asks a model, the backend
+    ($STALM_LLM when none is named) and whether its replies are constrained. This is what a
+    record keeps, so the run can be repeated from it on another machine."""
+    resolved = settings.resolved(planner_entry(name).name, problem)
+    llm = resolved.llm
+    if not asks_model(name, resolved):
+        return resolved
+    from stalm.llm.backends import SPEC_ENV, make_backend
+    from stalm.llm.backends.openai_compatible import BASE_URL_ENV
+
+    # no model named: $STALM_LLM, else a server in $STALM_LLM_BASE_URL (left None), else
+    # the embedded model, as make_backend decides
+    default = None if os.environ.get(BASE_URL_ENV) else "embedded"
+    backend = llm.backend or os.environ.get(SPEC_ENV) or default
+    constrained = llm.constrained
+    if constrained is None:
+        constrained = make_backend(backend).name == "embedded"  # loads no model
+    return replace(resolved, llm=replace(llm, backend=backend, constrained=constrained))
+
+
 def build_planner(
-    name: str, config: PlannerConfig | None = None, progress: Progress | None = None
+    name: str,
+    config: RunSettings | PlannerConfig | None = None,
+    progress: Progress | None = None,
 ) -> Planner:
     """The planner ``name`` configured by ``config`` (defaults: the paper's settings)."""
-    return planner_entry(name).build(config or PlannerConfig(), progress)
+    if isinstance(config, PlannerConfig):
+        config = config.to_settings()
+    return planner_entry(name).build(config or RunSettings(), progress)

@@ -37,11 +37,12 @@ from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.saycan_prompt import saycan_prompt
-from stalm.planners.config import PlannerConfig, Progress, llm_backend, use_constraint
+from stalm.planners.config import Progress, llm_backend, use_constraint
 from stalm.planners.episode import Episode
-from stalm.planners.online import Decision, OnlinePlanner, Trial
+from stalm.planners.online import Decision, OnlinePlanner, Sampling, Trial
 from stalm.planners.plan_queries import query_seed
 from stalm.planners.proposers import ask_for_task_plans
+from stalm.planners.settings import RunSettings
 from stalm.predicates.literals import GroundLiteral
 from stalm.search.puct import vote_prior
 from stalm.world.state import State
@@ -169,6 +170,7 @@ class EpSayCanPlanner(OnlinePlanner):
     constrained: bool = False
     settings: SayCanSettings = field(default_factory=SayCanSettings)
     progress: Progress | None = None
+    sampling: Sampling = field(default_factory=Sampling)
 
     def start(self, trial: Trial) -> SayCanSteps:
         return SayCanSteps(self, trial)
@@ -305,12 +307,15 @@ def _decision(
     }
 
 
-def build_ep_saycan(config: PlannerConfig, progress: Progress | None) -> EpSayCanPlanner:
-    """The registry's builder: the configured (cached) backend and N_batch."""
-    backend = llm_backend(config)
+def build_ep_saycan(settings: RunSettings, progress: Progress | None) -> EpSayCanPlanner:
+    """The registry's builder: the configured (cached) backend, N_batch and κ tries."""
+    backend = llm_backend(settings)
     return EpSayCanPlanner(
         backend,
-        constrained=use_constraint(config, backend),
-        settings=SayCanSettings(n_batch=config.batch),
+        constrained=use_constraint(settings, backend),
+        settings=SayCanSettings(
+            n_batch=settings.search.batch, kappa_tries=settings.execution.kappa_tries
+        ),
         progress=progress,
+        sampling=Sampling.of(settings),
     )

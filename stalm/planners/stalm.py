@@ -24,11 +24,18 @@ from typing import Any, ClassVar, cast
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
-from stalm.planners.config import Progress
+from stalm.planners.config import Progress, llm_backend, use_constraint
 from stalm.planners.feedback import FeedbackMemory, failed_steps
-from stalm.planners.online import Trial
-from stalm.planners.proposers import FeedbackProposer, TaskPlanProposer, takes_feedback
+from stalm.planners.online import Sampling, Trial
+from stalm.planners.proposers import (
+    FeedbackProposer,
+    LLMProposer,
+    TaskPlanProposer,
+    takes_feedback,
+)
+from stalm.planners.settings import RunSettings
 from stalm.planners.step_log import proposal_record
+from stalm.planners.symbolic import SymbolicProposer
 from stalm.planners.tree_step import (
     EXECUTION_RULES,
     ExecutionRule,
@@ -36,6 +43,7 @@ from stalm.planners.tree_step import (
     StalmSettings,
     TreePlanner,
     _best_promising_action,
+    tree_settings,
 )
 from stalm.search import (
     ConcretePlan,
@@ -174,6 +182,7 @@ class StalmPlanner(TreePlanner):
     proposer: TaskPlanProposer
     settings: StalmSettings = field(default_factory=StalmSettings)
     progress: Progress | None = None
+    sampling: Sampling = field(default_factory=Sampling)
     step_type: ClassVar[type[StalmStep]] = StalmStep
     """The real step this planner runs (STaLM w/o UCT: another decision without a goal plan)."""
 
@@ -186,3 +195,21 @@ class StalmPlanner(TreePlanner):
             )
         policies = SearchPolicies.from_settings(self.settings.search)
         return self.step_type(trial, self.settings, policies, proposer)
+
+
+def proposer_for(settings: RunSettings) -> TaskPlanProposer:
+    """STaLM's proposer: the symbolic planner, or the configured (cached) language model."""
+    if settings.proposer.kind == "symbolic":
+        return SymbolicProposer(goal_relations_only=settings.proposer.goal_relations_only)
+    backend = llm_backend(settings)
+    return LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
+
+
+def build_stalm(settings: RunSettings, progress: Progress | None) -> StalmPlanner:
+    """The registry's builder."""
+    return StalmPlanner(
+        proposer_for(settings),
+        tree_settings(settings, "stalm", proposes=True),
+        progress,
+        Sampling.of(settings),
+    )

@@ -12,7 +12,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from stalm.domain.params import Action
-from stalm.planners.stalm import StalmPlanner, StalmStep
+from stalm.planners.config import Progress
+from stalm.planners.online import Sampling
+from stalm.planners.settings import RunSettings
+from stalm.planners.stalm import StalmPlanner, StalmStep, proposer_for
+from stalm.planners.tree_step import tree_settings
 from stalm.search import ConcretePlan
 
 
@@ -40,3 +44,13 @@ def first_action_of_best_prefix(plans: list[ConcretePlan]) -> tuple[Action, ...]
         if len(actions) > len(best):
             best = actions
     return best[:1]
+
+
+def build_stalm_no_uct(settings: RunSettings, progress: Progress | None) -> StalmNoUctPlanner:
+    """The registry's builder."""
+    return StalmNoUctPlanner(
+        proposer_for(settings),
+        tree_settings(settings, "stalm-no-uct", proposes=True),
+        progress,
+        Sampling.of(settings),
+    )

@@ -26,6 +26,7 @@ from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
 from stalm.errors import StalmError
 from stalm.planners.online import Decision, OnlinePlanner, Trial
+from stalm.planners.settings import RunSettings
 from stalm.planners.step_log import tree_record, warm_edges
 from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
 from stalm.world.state import State
@@ -87,6 +88,29 @@ class StalmSettings:
     def needs_occlusion(self) -> bool:
         """Whether the predicate engine must plan occlusions (for the prompt or Hcount)."""
         return self.occlusion_predicates
+
+
+def tree_settings(settings: RunSettings, planner: str, *, proposes: bool) -> StalmSettings:
+    """The :class:`StalmSettings` of tree planner ``planner`` in a run's settings tree (a
+    planner that ``proposes`` no task plans -- UCT -- gets no feedback)."""
+    feedback = settings.feedback()
+    execution = settings.execution
+    return StalmSettings(
+        n_batch=settings.search.batch,
+        search=settings.search.search_settings(settings.search.budget_for(planner)),
+        reuse_tree=execution.reuse_tree,
+        feedback=feedback and proposes,
+        feedback_rounds=execution.feedback_rounds,
+        step_share=execution.step_share,
+        execution=execution.rule,
+        kappa_tries=execution.kappa_tries,
+        backtracks=execution.backtracks_for(feedback),
+        rewards=settings.rewards,
+        # the symbolic proposer plans with occlusions whatever the prompt options say
+        occlusion_predicates=(
+            settings.proposer.kind == "symbolic" or settings.prompt.occlusion_predicates
+        ),
+    )
 
 
 class TreePlanner(OnlinePlanner):

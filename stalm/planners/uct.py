@@ -12,11 +12,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from stalm.planners.config import Progress
-from stalm.planners.online import Trial
-from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
+from stalm.planners.online import Sampling, Trial
+from stalm.planners.settings import DEFAULT_SIMS, RunSettings
+from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner, tree_settings
 from stalm.search import SearchPolicies
 
-UCT_BUDGET = 35
+UCT_BUDGET = DEFAULT_SIMS["uct"]
 """N_budget of the UCT baselines in the paper's §4.2."""
 
 
@@ -29,6 +30,7 @@ class UctPlanner(TreePlanner):
     """STaLM's settings; the proposer's (N_batch, feedback, κ tries, backtracks) do not
     apply."""
     progress: Progress | None = None
+    sampling: Sampling = field(default_factory=Sampling)
 
     def policies(self, trial: Trial) -> SearchPolicies:
         """The search's policies: UCT's, with random rollouts at new leaves."""
@@ -36,3 +38,10 @@ class UctPlanner(TreePlanner):
 
     def start(self, trial: Trial) -> SearchStep:
         return SearchStep(trial, self.settings, self.policies(trial))
+
+
+def build_uct(settings: RunSettings, progress: Progress | None) -> UctPlanner:
+    """The registry's builder."""
+    return UctPlanner(
+        tree_settings(settings, "uct", proposes=False), progress, Sampling.of(settings)
+    )

@@ -11,9 +11,11 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any
 
+from stalm.planners.config import Progress
 from stalm.planners.hcount import HcountLeafValue
-from stalm.planners.online import Trial
-from stalm.planners.tree_step import SearchStep, StalmSettings
+from stalm.planners.online import Sampling, Trial
+from stalm.planners.settings import RunSettings
+from stalm.planners.tree_step import SearchStep, StalmSettings, tree_settings
 from stalm.planners.uct import UctPlanner
 from stalm.search import SearchPolicies
 
@@ -53,3 +55,10 @@ class HcountStep(SearchStep):
                 "predicates_brought_forward": self.leaf_value.brought_forward,
             },
         }
+
+
+def build_uct_hcount(settings: RunSettings, progress: Progress | None) -> UctHcountPlanner:
+    """The registry's builder."""
+    return UctHcountPlanner(
+        tree_settings(settings, "uct-hcount", proposes=False), progress, Sampling.of(settings)
+    )

@@ -111,7 +111,7 @@ def test_solve_gif_under_a_file_fails_before_solving(monkeypatch, capsys, tmp_pa
 
 
 def test_a_result_that_cannot_be_written_goes_to_a_named_fallback(tmp_path, capsys) -> None:
-    from stalm.cli.solve_commands import write_result_json
+    from stalm.cli.solve_output import write_result_json
 
     blocker = tmp_path / "a-file"
     blocker.write_text("x")

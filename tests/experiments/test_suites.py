@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import pytest
 
 from stalm.errors import StalmError
@@ -33,7 +36,7 @@ def test_every_planner_meets_the_same_seeds_and_budgets_are_scaled() -> None:
     assert by[("uct", "P1", 0)].seed == derive_seed(4, "P1", 0) < 2**20
     assert by[("uct", "P1", 0)].time_budget_s == pytest.approx(30.0)
     assert by[("uct", "P3", 0)].time_budget_s == pytest.approx(60.0)
-    assert by[("stalm-symbolic", "P1", 0)].arm.config.proposer == "symbolic"
+    assert by[("stalm-symbolic", "P1", 0)].arm.config.proposer.kind == "symbolic"
     assert len({s.key for s in specs}) == len(specs)
     # trial-major order: every (problem, planner) gets its first trial before any second
     assert [s.trial for s in specs[:4]] == [0, 0, 0, 0]
@@ -48,7 +51,7 @@ def test_table3_crosses_models_with_and_without_uct() -> None:
         "stalm [ollama:llama3.1]",
         "stalm-no-uct [ollama:llama3.1]",
     ]
-    assert plan.arms[2].config.llm == "ollama:llama3.1"
+    assert plan.arms[2].config.llm.backend == "ollama:llama3.1"
 
 
 def test_table4_is_the_four_prompt_switch_combinations() -> None:
@@ -79,7 +82,8 @@ def test_changing_the_budget_changes_the_trial_key_but_not_the_cache_mode() -> N
 
     [spec] = trial_specs(build_plan("figure5", problems=("P2",), trials=1))
     assert spec.key != replace(spec, time_budget_s=1.0).key
-    other = replace(spec.arm.config, cache_mode="replay")
+    settings = spec.arm.config
+    other = replace(settings, llm=replace(settings.llm, cache="replay", cache_file="r.sqlite"))
     assert spec.key == replace(spec, arm=replace(spec.arm, config=other)).key
 
 
@@ -101,3 +105,95 @@ def test_bad_choices_are_named(kwargs: dict[str, object], message: str) -> None:
 def test_an_unknown_problem_is_named() -> None:
     with pytest.raises(StalmError, match="P9"):
         trial_specs(build_plan("table2", problems=("P9",), planners=("uct",)))
+
+
+# Keys computed before the settings tree existed (PlannerConfig, commit 9fe03af): the same
+# trials must keep them, or a results log written then would not resume.
+KEYS_BEFORE_THE_SETTINGS_TREE = {
+    ("table2", "uct", "P1"): "548150b85c9d44e75c71",
+    ("table2", "stalm-symbolic", "P3"): "6f646db14a373d4f548d",
+    ("table2", "stalm-feedback", "P1"): "3d7aa634d568e12de79b",
+    ("table2", "llm-mcts", "P3"): "b62ba265a9f93b3e6657",
+    ("table4", "stalm no occlusion, challenges", "P1"): "5ece556416d3a9b8c27e",
+    ("table3", "stalm-no-uct [ollama:llama3.1]", "P3"): "78635e6386d091743eb2",
+}
+
+
+def test_trial_keys_of_default_settings_are_those_of_before_the_settings_tree() -> None:
+    plans = {
+        "table2": build_plan(
+            "table2",
+            planners=("uct", "stalm-symbolic", "stalm-feedback", "llm-mcts"),
+            problems=("P1", "P3"),
+            trials=1,
+        ),
+        "table4": build_plan("table4", problems=("P1", "P3"), trials=1),
+        "table3": build_plan(
+            "table3", llms=("embedded", "ollama:llama3.1"), problems=("P1", "P3"), trials=1
+        ),
+    }
+    keys = {
+        (name, spec.arm.label, spec.problem): spec.key
+        for name, plan in plans.items()
+        for spec in trial_specs(plan)
+    }
+    for cell, key in KEYS_BEFORE_THE_SETTINGS_TREE.items():
+        assert keys[cell] == key, cell
+
+
+def test_the_issue13_results_logs_still_resume() -> None:
+    """The commands written above docs/results.md's issue-13 tables (flat --set names
+    included) find every trial of their results logs already done."""
+    from stalm.planners.settings import RunSettings
+    from stalm.planners.settings_io import with_overrides
+
+    folder = Path(__file__).resolve().parents[2] / "docs" / "results" / "issue13"
+    everything_off = [
+        "reuse_tree=false",
+        "feedback=false",
+        "execution=best_q",
+        "goal_atom_lost=0",
+        "kappa_tries=1",
+        "goal_relations_only=false",
+        "backtracks=0",
+    ]
+    runs = [
+        ("after.jsonl", {"trials": 10}, []),
+        (
+            "without-reuse.jsonl",
+            {"problems": ("P3", "P5", "P6"), "trials": 2},
+            ["reuse_tree=false"],
+        ),
+        (
+            "without-reward.jsonl",
+            {"problems": ("P3", "P5", "P6"), "trials": 2},
+            ["goal_atom_lost=0"],
+        ),
+        ("before.jsonl", {"problems": ("P3", "P5", "P6"), "trials": 2}, everything_off),
+    ]
+    for name, options, overrides in runs:
+        base = with_overrides(RunSettings(), overrides)
+        plan = build_plan("table2", planners=("stalm-symbolic",), base=base, **options)
+        logged = {json.loads(line)["key"] for line in (folder / name).read_text().splitlines()}
+        assert {spec.key for spec in trial_specs(plan)} == logged, name
+
+
+def test_a_setting_beyond_the_flat_ones_changes_the_key_and_an_arm_keeps_its_own() -> None:
+    from stalm.planners.settings import RunSettings
+    from stalm.planners.settings_io import with_overrides
+
+    def keys(*overrides: str) -> list[str]:
+        base = with_overrides(RunSettings(), list(overrides))
+        plan = build_plan("table2", planners=("uct",), problems=("P2",), trials=1, base=base)
+        return [spec.key for spec in trial_specs(plan)]
+
+    default = keys()
+    assert keys("search.c=50") == default, "a value equal to the default is the default"
+    assert keys("search.c=20") != default
+    assert keys("samplers.pick_tries=3") != default
+    assert keys("llm.cache=replay", "llm.cache_file=x.sqlite") == default
+    assert keys("budget.time_budget_s=300") == keys() != keys("budget.time_budget_s=30")
+    # the stalm-symbolic row stays symbolic whatever --set says
+    base = with_overrides(RunSettings(), ["proposer.kind=llm"])
+    [arm] = build_plan("table2", planners=("stalm-symbolic",), base=base).arms
+    assert arm.config.proposer.kind == "symbolic"

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -229,13 +230,64 @@ def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
     assert isinstance(planner, LlmMctsPlanner) and planner.name == "llm-mcts"
     assert planner.settings.search.budget == 35 and planner.settings.search.c == 50.0
     assert planner.settings.samples == 5 and planner.settings.uniform_weight == 0.5
-    custom = build_llm_mcts(PlannerConfig(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3), None)
+    custom = build_llm_mcts(
+        PlannerConfig(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3).to_settings(), None
+    )
     assert custom.settings.search.budget == 7 and custom.settings.samples == 3
     assert planner.settings.occlusion_predicates
     no_occlusion = PlannerConfig(
         llm="http://127.0.0.1:9/v1#m", prompt=PromptOptions(occlusion_predicates=False)
     )
-    assert not build_llm_mcts(no_occlusion, None).settings.occlusion_predicates
+    assert not build_llm_mcts(no_occlusion.to_settings(), None).settings.occlusion_predicates
+
+
+def test_llm_mcts_reuses_the_tree_by_the_one_setting_of_every_tree_planner() -> None:
+    """Tree reuse (issue 13) is on for LLM-MCTS as for STaLM and UCT, and the same setting
+    (execution.reuse_tree, --set reuse_tree=false) switches it off for all of them."""
+    model = PlannerConfig(llm="http://127.0.0.1:9/v1#m")
+    assert LlmMctsSettings().reuse_tree
+    for name in ("llm-mcts", "stalm", "uct", "uct-hcount"):
+        assert build_planner(name, model).reuse_tree, name
+        off = replace(model, reuse_tree=False)
+        assert not build_planner(name, off).reuse_tree, name
+
+
+def test_the_reused_subtree_keeps_the_n_and_q_it_had_before_the_step(problems, monkeypatch) -> None:
+    """After a real step, every node of LLM-MCTS's kept subtree has the visits and values it
+    had in the tree that chose the step, and the next search starts from that subtree."""
+    from stalm.planners import online
+    from stalm.world.problem import Problem
+    from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply
+
+    kept: list[tuple[dict, dict, int]] = []
+    execute = online.Trial.execute
+
+    def execute_and_compare(trial: online.Trial, action) -> None:
+        tree = trial.tree
+        before = {s: tree.node(s) for s in tree.states()} if tree is not None else {}
+        execute(trial, action)
+        if trial.tree is not None:
+            after = {s: trial.tree.node(s) for s in trial.tree.states()}
+            kept.append((before, after, trial.tree.visits(trial.tree.root)))
+
+    monkeypatch.setattr(online.Trial, "execute", execute_and_compare)
+    p2 = problems["P2"]
+    short = Problem(p2.spec.model_copy(update={"horizon": 2}), p2.source)
+    reply = plan_reply([Open("kitchen_door"), Pick("bottle2"), Place("bottle2", "on", "counter1")])
+    backend = ScriptedReplyBackendDouble(queue=[[reply]])
+    settings = LlmMctsSettings(
+        search=SearchSettings(budget=3, horizon=2), samples=2, occlusion_predicates=False
+    )
+    planner = LlmMctsPlanner(
+        LLMProposer(backend, PromptOptions(occlusion_predicates=False)), settings
+    )
+    result = planner.solve(short, 0, 600.0)
+    assert len(result.plan) == 2 and kept, "the first step's child subtree was kept"
+    for before, after, root_visits in kept:
+        assert after and root_visits > 0
+        for state, node in after.items():
+            assert node == before[state], "N and Q of a kept node are what they were"
+    assert result.details["reused_root_visits"] == [visits for _, _, visits in kept]
 
 
 class CachedProposerDouble:

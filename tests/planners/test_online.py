@@ -201,3 +201,56 @@ def test_llm_mcts_keeps_the_executed_childs_subtree_and_priors_when_asked_to(pro
     calls_kept, calls_fresh = kept["llm_calls_per_step"], fresh["llm_calls_per_step"]
     assert isinstance(calls_kept, list) and isinstance(calls_fresh, list)
     assert calls_kept[0] == calls_fresh[0] and calls_kept[1] < calls_fresh[1]
+
+
+PLANNER_MODULES = (
+    "stalm.planners.stalm",
+    "stalm.planners.stalm_no_uct",
+    "stalm.planners.uct",
+    "stalm.planners.uct_hcount",
+    "stalm.planners.saycan",
+    "stalm.planners.iterative_replanning",
+    "stalm.planners.llm_mcts",
+    "stalm.planners.pddlstream",
+    "stalm.planners.symbolic",
+)
+
+
+def _loaded_after(code: str) -> set[str]:
+    """The stalm modules a fresh interpreter has loaded after running ``code``."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    root = str(PLANNERS.parents[1])
+    env = {**os.environ, "PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    script = f"{code}\nimport json, sys\nprint(json.dumps(sorted(sys.modules)))"
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=root,  # python -c puts the working folder first on the path
+        check=True,
+    )
+    return {m for m in json.loads(done.stdout.splitlines()[-1]) if m.startswith("stalm")}
+
+
+def test_the_registry_imports_a_planner_only_to_build_it() -> None:
+    listed = _loaded_after(
+        "from stalm.planners.registry import planners, resolve, RunSettings\n"
+        "assert len(planners()) == 8\nresolve('uct', RunSettings())"
+    )
+    assert listed.isdisjoint(PLANNER_MODULES), sorted(listed & set(PLANNER_MODULES))
+    built = _loaded_after("from stalm.planners.registry import build_planner\nbuild_planner('uct')")
+    assert "stalm.planners.uct" in built and "stalm.planners.llm_mcts" not in built
+
+
+def test_stalm_help_loads_no_planner() -> None:
+    loaded = _loaded_after(
+        "import sys\nsys.argv = ['stalm', '--help']\nfrom stalm.cli.main import main\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass"
+    )
+    assert "stalm.cli.main" in loaded
+    assert loaded.isdisjoint({*PLANNER_MODULES, "stalm.planners.registry"}), sorted(loaded)

@@ -144,7 +144,7 @@ def test_an_execution_failure_becomes_a_fact_or_retires_the_motion(p2_domain) ->
 
 
 def test_the_registry_builds_it() -> None:
-    planner = build_pddlstream_adaptive(PlannerConfig(), None)
+    planner = build_pddlstream_adaptive(PlannerConfig().to_settings(), None)
     assert isinstance(planner, PDDLStreamPlanner) and planner.name == "pddlstream-adaptive"
 
 

@@ -16,15 +16,15 @@ from stalm.planners.pddlstream.adaptive import AdaptiveSettings
 from stalm.planners.pddlstream.planner import PDDLStreamPlanner
 
 if TYPE_CHECKING:
-    from stalm.planners.config import PlannerConfig
+    from stalm.planners.settings import RunSettings
 
 __all__ = ["AdaptiveSettings", "PDDLStreamPlanner", "build_pddlstream_adaptive"]
 
 
 def build_pddlstream_adaptive(
-    config: PlannerConfig, progress: Callable[[str], None] | None
+    settings: RunSettings, progress: Callable[[str], None] | None
 ) -> Planner:
-    """The registry's builder. Nothing in ``config`` applies: the planner uses no language
-    model, and its settings are PDDLStream's (:class:`AdaptiveSettings`)."""
-    del config
-    return PDDLStreamPlanner(progress=progress)
+    """The registry's builder. Of the settings tree only ψ's (``samplers``, which its streams
+    draw with) applies: the planner uses no language model and no search tree, and its own
+    settings are PDDLStream's (:class:`AdaptiveSettings`)."""
+    return PDDLStreamPlanner(progress=progress, samplers=settings.samplers)

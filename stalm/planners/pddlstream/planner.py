@@ -28,6 +28,7 @@ import numpy as np
 from stalm.domain.mdp import Domain
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
+from stalm.domain.samplers import SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
 from stalm.planners.base import Counters, PhaseTimes, PlanResult, cpu_seconds
@@ -51,6 +52,8 @@ class PDDLStreamPlanner:
 
     settings: AdaptiveSettings = field(default_factory=AdaptiveSettings)
     progress: Progress | None = None
+    samplers: SamplerSettings = field(default_factory=SamplerSettings)
+    """ψ's settings, which the streams sample with."""
 
     @property
     def name(self) -> str:
@@ -64,7 +67,7 @@ class PDDLStreamPlanner:
         start_time = time.monotonic()
         cpu_start = cpu_seconds()
         budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
-        domain = Domain.create(problem)
+        domain = Domain.create(problem, sampler_settings=self.samplers)
         try:
             result = self._run(domain, problem, seed, start_time, start_time + budget)
         finally:

@@ -1,0 +1,139 @@
+"""``stalm rerun``: run a trial again from its result record alone.
+
+A record (``stalm solve --json``, or one line of an experiment's results file) keeps the
+problem's name and hash, the planner, the seed and the whole resolved settings tree. This
+command builds the same planner from them, solves the same problem with the same seed and
+says whether the plan is the record's: with the same cached replies and a run the clock did
+not cut short, it is, action for action and number for number.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from stalm.cli.display import shown
+from stalm.cli.paths import check_output_file
+from stalm.cli.solve_output import console, note_embedded, out, solve_and_report
+from stalm.errors import StalmError
+from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
+
+commands = typer.Typer()
+"""The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
+
+
+def read_record(path: Path, key: str | None) -> dict[str, Any]:
+    """The record in ``path``: a JSON object, or the line of a JSON-lines file whose key
+    starts with ``key`` (needed when the file holds more than one)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        raise StalmError(f"{path}: cannot read a result ({error})") from None
+    try:
+        records = [json.loads(text)]
+    except ValueError:
+        try:
+            records = [json.loads(line) for line in text.splitlines() if line.strip()]
+        except ValueError as error:
+            raise StalmError(f"{path}: not a JSON result nor JSON lines ({error})") from None
+    records = [r for r in records if isinstance(r, dict)]
+    if key is not None:
+        records = [r for r in records if str(r.get("key", "")).startswith(key)]
+    if len(records) != 1:
+        if not records:
+            raise StalmError(
+                f"{path}: no record" + (f" with a key starting {key!r}" if key else "")
+            )
+        sample = ", ".join(str(r.get("key", "?"))[:8] for r in records[:3])
+        raise StalmError(f"{path}: {len(records)} records; choose one with --key (e.g. {sample})")
+    return records[0]
+
+
+def first_difference(recorded: list[Any], now: list[Any]) -> int | None:
+    """The index of the first action that differs between two plans (as JSON), or None."""
+    for index, (a, b) in enumerate(zip(recorded, now, strict=False)):
+        if a != b:
+            return index
+    return None if len(recorded) == len(now) else min(len(recorded), len(now))
+
+
+@commands.command("rerun")
+def rerun_command(
+    record_file: Annotated[
+        Path,
+        typer.Argument(
+            help="A result of stalm solve --json, or an experiment's results (.jsonl) with --key."
+        ),
+    ],
+    key: Annotated[
+        str | None,
+        typer.Option(help="The trial's key (or its start) in a JSON-lines results file."),
+    ] = None,
+    problem: Annotated[
+        str | None,
+        typer.Option(help="Problem (default: the one named in the record; the hash must match)."),
+    ] = None,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Write the new result as JSON.")
+    ] = None,
+) -> None:
+    """Run a recorded trial again (problem, planner, seed and settings from the record) and
+    check that it gives the recorded plan; exit 1 if it does not."""
+    from stalm.planners.registry import planner_entry, resolve
+    from stalm.planners.settings_io import from_mapping
+
+    if json_out is not None:
+        check_output_file(json_out, "--json")
+    record = read_record(record_file, key)
+    if not isinstance(record.get("settings"), dict):
+        raise StalmError(
+            f"{record_file}: the record has no settings tree (it was written before records "
+            "kept one), so it cannot be re-run from the record alone"
+        )
+    settings = from_mapping(record["settings"], f"{record_file}: settings")
+    entry = planner_entry(str(record.get("planner", "")))
+    seed = record.get("seed")
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise StalmError(f"{record_file}: seed must be a non-negative integer, got {seed!r}")
+    loaded = load_problem(problem or str(record.get("problem", "")))
+    recorded_hash = record.get(PROBLEM_HASH_FIELD)
+    if recorded_hash is not None and recorded_hash != loaded.content_hash:
+        raise StalmError(
+            f"{record_file}: the record's problem ({recorded_hash}) is not {loaded.name} as "
+            f"{shown(loaded.source)} has it ({loaded.content_hash}); pass the problem file it "
+            "ran on with --problem"
+        )
+    resolved = resolve(entry.name, settings, loaded)
+    console.print(
+        f"re-running {shown(loaded.name)} with {entry.name}, seed {seed}, from "
+        f"{shown(record_file)}",
+        highlight=False,
+    )
+    note_embedded(entry.name, resolved)
+    result, fallback = solve_and_report(entry.name, resolved, loaded, seed, json_out)
+    now = json.loads(json.dumps(result.to_json()["plan"]))
+    recorded = record.get("plan") or []
+    differs = first_difference(recorded, now)
+    if differs is None:
+        out.print(f"[green]the plan is the record's ({len(now)} actions)[/]", highlight=False)
+    else:
+        out.print(
+            f"[red]the plan differs from the record's from action {differs + 1}[/] "
+            f"(recorded {len(recorded)} actions, termination {shown(record.get('termination'))}"
+            f"; now {len(now)}, {shown(result.termination)})",
+            highlight=False,
+        )
+        if record.get("termination") in ("timeout", "error"):
+            console.print(
+                "[yellow]note:[/] the recorded run ended by "
+                f"{shown(record.get('termination'))}: where the clock stops a run depends on "
+                "the machine",
+                highlight=False,
+            )
+    if fallback is not None:
+        raise StalmError(f"--json {json_out} could not be written; the result is in {fallback}")
+    if differs is not None:
+        raise typer.Exit(1)

@@ -1,0 +1,183 @@
+"""Running one solve and showing it: what ``stalm solve`` and ``stalm rerun`` share.
+
+:func:`solve_and_report` builds the planner from a resolved settings tree, solves with the
+tree's budget, prints the plan, its phase times and counters, and writes the result record
+(``--json``), which carries the problem's hash and the whole settings tree, so that
+``stalm rerun`` can run the trial again from the file alone.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from rich.console import Console
+from rich.table import Table
+
+from stalm.cli.display import shown
+from stalm.cli.paths import write_or_fall_back
+from stalm.errors import StalmError
+from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
+
+if TYPE_CHECKING:
+    from stalm.planners.base import PlanResult
+    from stalm.planners.settings import RunSettings
+
+console = Console(stderr=True)
+out = Console()
+
+
+def print_result(result: PlanResult) -> None:
+    """The outcome, the plan with its continuous parameters, phase times and counters."""
+    from stalm.domain.params import PickParams, PlaceParams
+
+    status = (
+        "[green]solved[/]"
+        if result.success
+        else f"[red]not solved[/] ({shown(result.termination)})"
+    )
+    out.print(
+        f"{shown(result.problem)} with {result.planner} (seed {result.seed}): {status}",
+        highlight=False,
+    )
+    table = Table(show_header=True, title=f"plan ({len(result.plan)} actions)")
+    table.add_column("#", justify="right")
+    table.add_column("action")
+    table.add_column("continuous parameters")
+    for index, action in enumerate(result.plan):
+        params = action.params
+        detail = f"base path {params.base_path.length:.2f} m"
+        if isinstance(params, PickParams):
+            detail += f", gripper pitch {params.pitch:.2f} yaw {params.yaw:.2f}"
+        elif isinstance(params, PlaceParams):
+            detail += f", at ({params.placement.x:.2f}, {params.placement.y:.2f})"
+        table.add_row(str(index + 1), shown(action.discrete), detail)
+    out.print(table)
+    t = result.times
+    c = result.counters
+    out.print(
+        f"time {t.total:.1f} s (predicates {t.predicates:.1f}, LLM {t.llm:.1f}, concretize "
+        f"{t.concretize:.1f}, tree {t.tree_search:.1f}, execution {t.execution:.1f}); "
+        f"LLM calls {c.llm_calls} ({c.prompt_tokens}+{c.completion_tokens} tokens), "
+        f"T calls {c.transitions}, samples {c.samples}, simulations {c.simulations}, "
+        f"collision checks {c.collision_checks}",
+        highlight=False,
+    )
+    if result.llm_plan_failures:
+        out.print(f"failed task plans by kind: {shown(result.llm_plan_failures)}", highlight=False)
+
+
+def write_result_json(data: dict[str, Any], path: Path) -> Path:
+    """Write a result; if ``path`` cannot be written, to a temporary file named on stderr
+    (a solve's result is never lost to a bad path). Returns the file written."""
+    written, why = write_or_fall_back(json.dumps(data, indent=1), path, "stalm-result")
+    if why is not None:
+        console.print(
+            f"[red]could not write {shown(path)}[/] ({shown(why)}); the result is in "
+            f"{shown(written)}",
+            highlight=False,
+            soft_wrap=True,
+        )
+    return written
+
+
+def result_record(result: PlanResult, problem: Problem, settings: RunSettings) -> dict[str, Any]:
+    """What ``--json`` writes: the result, the problem's hash and the whole settings tree."""
+    from stalm.planners.settings_io import to_dict
+
+    return {
+        **result.to_json(),
+        PROBLEM_HASH_FIELD: problem.content_hash,
+        "settings": to_dict(settings),
+    }
+
+
+def note_embedded(planner: str, settings: RunSettings) -> None:
+    """Say so when a planner that asks a model will ask the bundled small one."""
+    from stalm.llm.backends import make_backend
+    from stalm.planners.registry import asks_model
+
+    if not asks_model(planner, settings):
+        return
+    backend = make_backend(settings.llm.backend)  # no model is loaded here
+    if backend.name == "embedded":
+        console.print(f"[yellow]note:[/] {shown(backend.description)}", highlight=False)
+
+
+def solve_and_report(
+    planner_name: str,
+    settings: RunSettings,
+    problem: Problem,
+    seed: int,
+    json_out: Path | None,
+) -> tuple[PlanResult, Path | None]:
+    """Solve ``problem`` with the resolved ``settings``, print the result and write its
+    record to ``json_out`` (also when a server stops the run: then termination 'error').
+    Returns the result and the file the record went to instead of ``json_out``, if any."""
+    from stalm.planners.registry import build_planner
+    from stalm.planners.settings import with_budget
+    from stalm.planners.settings_io import to_dict
+
+    with console.status(f"solving {shown(problem.name)} with {planner_name}...") as status:
+        planner = build_planner(planner_name, settings, progress=lambda m: status.update(shown(m)))
+        try:
+            result = planner.solve(
+                with_budget(problem, settings.budget), seed, settings.budget.time_budget_s
+            )
+        except StalmError as error:
+            # a server that fails mid-run (a key refused, answers that are not JSON): the
+            # result file still says what happened, as an experiment's error record does
+            if json_out is not None:
+                failed = {
+                    "problem": problem.name,
+                    PROBLEM_HASH_FIELD: problem.content_hash,
+                    "planner": planner_name,
+                    "seed": seed,
+                    "success": False,
+                    "termination": "error",
+                    "error": str(error),
+                    "plan_length": 0,
+                    "plan": [],
+                    "settings": to_dict(settings),
+                }
+                out.print(f"wrote {shown(write_result_json(failed, json_out))}", highlight=False)
+            raise
+    print_result(result)
+    fallback: Path | None = None
+    if json_out is not None:
+        written = write_result_json(result_record(result, problem, settings), json_out)
+        out.print(f"wrote {shown(written)}", highlight=False)
+        fallback = written if written != json_out else None
+    return result, fallback
+
+
+def write_pictures(
+    problem: Problem,
+    result: PlanResult,
+    settings: RunSettings,
+    gif: Path | None,
+    html: Path | None,
+) -> None:
+    """The ``--gif`` animation and the ``--html`` page of a solve's result."""
+    if gif is not None:
+        write_gif(problem, result, gif)
+    if html is not None:
+        from stalm.cli.view_commands import write_view_page
+
+        write_view_page(problem, result_record(result, problem, settings), html)
+
+
+def write_gif(problem: Problem, result: PlanResult, path: Path) -> None:
+    from stalm.viz.animate import plan_frames, save_gif
+    from stalm.world.scene import Sim
+
+    with Sim(problem.spec) as sim, console.status("rendering the animation..."):
+        frames = plan_frames(
+            sim, result.states[0], list(zip(result.plan, result.states[1:], strict=True))
+        )
+        try:
+            save_gif(frames, path)
+        except OSError as error:
+            raise StalmError(f"--gif {path}: cannot write it ({error.strerror})") from None
+    out.print(f"wrote {shown(path)} ({len(frames)} frames)", highlight=False)
