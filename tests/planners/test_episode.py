@@ -123,5 +123,5 @@ def test_a_trial_records_the_cpu_seconds_it_used_apart_from_wall_time(
         pass
     time.sleep(0.3)  # waiting uses wall time, not CPU time
     times = episode.finish(domain, "stalm", 0, "horizon").times
-    assert 0.3 <= times.cpu < 0.3 + 0.25
+    assert 0.3 - 0.02 <= times.cpu < 0.3 + 0.25  # os.times counts in 10 ms ticks
     assert times.total >= 0.6
