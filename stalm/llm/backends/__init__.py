@@ -42,8 +42,8 @@ from stalm.llm.backends.openai_compatible import (
     BASE_URL_ENV,
     ConstraintStyle,
     OpenAICompatibleBackend,
-    RetryPolicy,
 )
+from stalm.llm.backends.retries import RetryPolicy
 
 SPEC_ENV = "STALM_LLM"
 SPEC_HELP = (
