@@ -11,7 +11,7 @@ import pytest
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
 from stalm.llm.backends import EmbeddedBackend, LLMRequest, OutputConstraint, embedded
-from stalm.llm.backends.embedded import locate_embedded_model
+from stalm.llm.backends.embedded_models import locate_embedded_model
 from stalm.llm.constraints import ConstraintLimits, build_constraint, build_gbnf
 from stalm.llm.reply_parser import parse_reply
 
