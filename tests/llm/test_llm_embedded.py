@@ -134,7 +134,8 @@ def test_a_deadline_stops_sampling_and_cut_replies_are_not_cached(
 ) -> None:
     import time
 
-    from stalm.llm.cache import CachedBackend, ReplyCache
+    from stalm.llm.cache import CachedBackend
+    from stalm.llm.cache_file import ReplyCache
 
     request = LLMRequest(system="You answer briefly.", user="Say hi.", n=3, max_tokens=8, seed=1)
     passed = dataclasses.replace(request, deadline=time.monotonic() - 1.0)
