@@ -21,7 +21,7 @@ from typing import Any
 
 from stalm.errors import StalmError
 from stalm.experiments.trials import TrialSpec, run_trial
-from stalm.llm.cache import ReplyCache
+from stalm.llm.cache_file import ReplyCache
 
 RemoteResult = tuple[dict[str, Any], bytes | None]
 

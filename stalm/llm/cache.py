@@ -13,8 +13,8 @@ purpose: trials with different seeds must get different draws, not one shared ca
 Nothing machine-specific (server URL, paths, user) enters the key, so a file copied to another
 machine hits there too.
 
-The store is one SQLite file in WAL mode, opened per operation with short transactions, which
-is safe for several processes (parallel trials) sharing it.
+The file, its keys and its schema are :mod:`stalm.llm.cache_file`; this module is the policy:
+the modes, which samples to ask the model for, and what a served reply counts as having cost.
 
 Each entry also keeps ``call_seconds``: its share of the wall time of the backend call that
 produced it (the call's seconds divided by the replies it returned). A reply served from the
@@ -29,19 +29,12 @@ call's time, an over-count).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
-import os
-import sqlite3
 import time
-from collections.abc import Iterable, Iterator
-from contextlib import closing, contextmanager
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Literal, cast, get_args
 
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMBackend, LLMReply, LLMRequest, LLMResponse
+from stalm.llm.cache_file import CachedSample, ReplyCache, prompt_digest, sample_key
 
 CacheMode = Literal["use", "refresh", "off", "replay"]
 """``use``: read hits, run and store misses. ``refresh``: ignore stored replies, run the model
@@ -49,49 +42,6 @@ and overwrite them. ``off``: neither read nor write. ``replay``: read only, and 
 error, which proves a result was reproduced from the cache file alone."""
 
 CACHE_MODES: tuple[str, ...] = get_args(CacheMode)
-CACHE_FILE_NAME = "replies.sqlite"
-CACHE_DIR_ENV = "STALM_CACHE_DIR"
-_KEY_VERSION = 1
-_BUSY_TIMEOUT_S = 30.0
-
-_SCHEMA = """
-CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
-CREATE TABLE IF NOT EXISTS prompts (
-    prompt_sha TEXT PRIMARY KEY,
-    system TEXT NOT NULL,
-    user TEXT NOT NULL
-);
-CREATE TABLE IF NOT EXISTS replies (
-    key TEXT PRIMARY KEY,
-    backend TEXT NOT NULL,
-    model TEXT NOT NULL,
-    prompt_sha TEXT NOT NULL,
-    temperature REAL NOT NULL,
-    max_tokens INTEGER NOT NULL,
-    seed INTEGER,
-    constraint_fingerprint TEXT,
-    sample_index INTEGER NOT NULL,
-    text TEXT NOT NULL,
-    prompt_tokens INTEGER NOT NULL,
-    completion_tokens INTEGER NOT NULL,
-    latency_s REAL NOT NULL,
-    finish_reason TEXT,
-    created_at REAL NOT NULL,
-    call_seconds REAL
-);
-"""
-_COLUMNS_V1 = (
-    "key, backend, model, prompt_sha, temperature, max_tokens, seed, constraint_fingerprint, "
-    "sample_index, text, prompt_tokens, completion_tokens, latency_s, finish_reason, created_at"
-)
-"""The columns of a cache file written before ``call_seconds`` was added, in order."""
-
-
-def default_cache_path() -> Path:
-    """``$STALM_CACHE_DIR/replies.sqlite``, else ``~/.cache/stalm/replies.sqlite``."""
-    directory = os.environ.get(CACHE_DIR_ENV)
-    base = Path(directory).expanduser() if directory else Path.home() / ".cache" / "stalm"
-    return base / CACHE_FILE_NAME
 
 
 def check_cache_mode(mode: str) -> CacheMode:
@@ -99,217 +49,6 @@ def check_cache_mode(mode: str) -> CacheMode:
     if mode not in CACHE_MODES:
         raise StalmError(f"unknown cache mode {mode!r}; expected one of {', '.join(CACHE_MODES)}")
     return cast(CacheMode, mode)
-
-
-def prompt_digest(system: str, user: str) -> str:
-    """The digest that names a prompt in the cache's ``prompts`` table."""
-    return hashlib.sha256(json.dumps([system, user]).encode("utf-8")).hexdigest()
-
-
-def sample_key(backend: str, model: str, request: LLMRequest, index: int) -> str:
-    """The cache key of sample ``index`` of ``request`` sent to ``model`` on ``backend``.
-
-    ``request.n`` is deliberately absent: sample 3 of a batch of 5 is the same draw as
-    sample 3 of a batch of 4.
-    """
-    fingerprint = request.constraint.fingerprint if request.constraint else None
-    material = [
-        _KEY_VERSION,
-        backend,
-        model,
-        request.system,
-        request.user,
-        request.temperature,
-        request.max_tokens,
-        request.seed,
-        fingerprint,
-        index,
-    ]
-    encoded = json.dumps(material, ensure_ascii=False, separators=(",", ":"))
-    return hashlib.sha256(encoded.encode("utf-8")).hexdigest()
-
-
-@dataclass(frozen=True)
-class CachedSample:
-    """A reply ready to store, with the request fields kept for people inspecting the file.
-
-    ``call_seconds`` is the reply's share of the wall time of the call that produced it
-    (None when unknown: the reply's ``latency_s`` then stands in when it is read back).
-    """
-
-    key: str
-    backend: str
-    model: str
-    request: LLMRequest
-    index: int
-    reply: LLMReply
-    call_seconds: float | None = None
-
-
-@dataclass(frozen=True)
-class StoredReply:
-    """A cached reply and the seconds producing it took (see :class:`CachedSample`)."""
-
-    reply: LLMReply
-    call_seconds: float
-
-
-class ReplyCache:
-    """The SQLite file of cached replies.
-
-    A connection is opened for each operation and closed after it, so the object holds no
-    open handle (it can be passed to worker processes) and the write-ahead log is folded back
-    into the main file when the last user closes it, leaving one self-contained file to send.
-    """
-
-    def __init__(self, path: str | os.PathLike[str] | None = None) -> None:
-        self._path = Path(path).expanduser() if path is not None else default_cache_path()
-        try:
-            self._path.parent.mkdir(parents=True, exist_ok=True)
-            with self._connect() as conn:
-                conn.execute("PRAGMA journal_mode=WAL")
-                conn.executescript(_SCHEMA)
-                _add_call_seconds(conn)
-                conn.execute(
-                    "INSERT OR IGNORE INTO meta(name, value) VALUES ('key_version', ?)",
-                    (str(_KEY_VERSION),),
-                )
-        except (OSError, sqlite3.Error) as error:
-            raise StalmError(f"cannot open the reply cache {self._path}: {error}") from error
-
-    @property
-    def path(self) -> Path:
-        return self._path
-
-    @contextmanager
-    def _connect(self) -> Iterator[sqlite3.Connection]:
-        with closing(sqlite3.connect(self._path, timeout=_BUSY_TIMEOUT_S)) as conn:
-            conn.execute("PRAGMA synchronous=NORMAL")
-            with conn:  # one short transaction, committed on success
-                yield conn
-
-    def get_many(self, keys: Iterable[str]) -> dict[str, LLMReply]:
-        """The stored replies among ``keys`` (missing keys are simply absent)."""
-        return {key: stored.reply for key, stored in self.get_stored(keys).items()}
-
-    def get_stored(self, keys: Iterable[str]) -> dict[str, StoredReply]:
-        """The stored replies among ``keys`` with the seconds producing each took."""
-        wanted = list(dict.fromkeys(keys))
-        if not wanted:
-            return {}
-        found: dict[str, StoredReply] = {}
-        try:
-            with self._connect() as conn:
-                for start in range(0, len(wanted), 500):
-                    chunk = wanted[start : start + 500]
-                    marks = ",".join("?" * len(chunk))
-                    rows = conn.execute(
-                        "SELECT key, text, prompt_tokens, completion_tokens, latency_s, "
-                        f"finish_reason, call_seconds FROM replies WHERE key IN ({marks})",
-                        chunk,
-                    )
-                    for row in rows:
-                        key, text, prompt_tokens, completion_tokens, latency, finish, call = row
-                        reply = LLMReply(
-                            text=text,
-                            prompt_tokens=prompt_tokens,
-                            completion_tokens=completion_tokens,
-                            latency_s=latency,
-                            finish_reason=finish,
-                        )
-                        found[key] = StoredReply(reply, latency if call is None else call)
-        except sqlite3.Error as error:
-            raise StalmError(f"cannot read the reply cache {self._path}: {error}") from error
-        return found
-
-    def put_many(self, samples: Iterable[CachedSample]) -> None:
-        """Store (or overwrite) replies in one short transaction."""
-        rows = []
-        prompts = {}
-        now = time.time()
-        for sample in samples:
-            request, reply = sample.request, sample.reply
-            sha = prompt_digest(request.system, request.user)
-            prompts[sha] = (sha, request.system, request.user)
-            rows.append(
-                (
-                    sample.key,
-                    sample.backend,
-                    sample.model,
-                    sha,
-                    request.temperature,
-                    request.max_tokens,
-                    request.seed,
-                    request.constraint.fingerprint if request.constraint else None,
-                    sample.index,
-                    reply.text,
-                    reply.prompt_tokens,
-                    reply.completion_tokens,
-                    reply.latency_s,
-                    reply.finish_reason,
-                    now,
-                    sample.call_seconds,
-                )
-            )
-        if not rows:
-            return
-        try:
-            with self._connect() as conn:
-                conn.executemany(
-                    "INSERT OR IGNORE INTO prompts(prompt_sha, system, user) VALUES (?, ?, ?)",
-                    list(prompts.values()),
-                )
-                conn.executemany(
-                    f"INSERT OR REPLACE INTO replies ({_COLUMNS_V1}, call_seconds) VALUES "
-                    "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                    rows,
-                )
-        except sqlite3.Error as error:
-            raise StalmError(f"cannot write the reply cache {self._path}: {error}") from error
-
-    def __len__(self) -> int:
-        with self._connect() as conn:
-            (count,) = conn.execute("SELECT COUNT(*) FROM replies").fetchone()
-        return int(count)
-
-    def merge_from(self, other: str | os.PathLike[str]) -> int:
-        """Add every reply of the cache file ``other`` that this cache lacks; return how many.
-
-        How replies made on other machines (Ray workers) come home: stored replies are never
-        overwritten, so merging is idempotent and order-free.
-        """
-        source = Path(other)
-        if not source.is_file():
-            raise StalmError(f"no reply cache to merge at {source}")
-        before = len(self)
-        try:
-            with self._connect() as conn:
-                conn.execute("ATTACH DATABASE ? AS other", (str(source),))
-                conn.execute("INSERT OR IGNORE INTO prompts SELECT * FROM other.prompts")
-                # a file written before call_seconds existed lacks the column: it stays NULL
-                columns = _COLUMNS_V1
-                if "call_seconds" in _columns(conn, "other"):
-                    columns += ", call_seconds"
-                conn.execute(
-                    f"INSERT OR IGNORE INTO replies ({columns}) SELECT {columns} FROM other.replies"
-                )
-        except sqlite3.Error as error:
-            raise StalmError(f"cannot merge the reply cache {source}: {error}") from error
-        return len(self) - before
-
-    def export(self, destination: str | os.PathLike[str]) -> Path:
-        """Copy the cache into one consistent file (safe while others write) to send along."""
-        target = Path(destination).expanduser()
-        target.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            with (
-                closing(sqlite3.connect(self._path, timeout=_BUSY_TIMEOUT_S)) as source,
-                closing(sqlite3.connect(target)) as sink,
-            ):
-                source.backup(sink)
-        except sqlite3.Error as error:
-            raise StalmError(f"cannot export the reply cache to {target}: {error}") from error
-        return target
 
 
 class CachedBackend:
@@ -410,25 +149,6 @@ class CachedBackend:
             cached_replies=request.n - len(missing),
             cached_seconds=cached_seconds,
         )
-
-
-def _add_call_seconds(conn: sqlite3.Connection) -> None:
-    """Give a cache file written before ``call_seconds`` existed the column (NULL in old rows).
-
-    Another process may add it at the same moment; its "duplicate column" is no error.
-    """
-    if "call_seconds" in _columns(conn, "main"):
-        return
-    try:
-        conn.execute("ALTER TABLE replies ADD COLUMN call_seconds REAL")
-    except sqlite3.OperationalError as error:
-        if "duplicate column" not in str(error):
-            raise
-
-
-def _columns(conn: sqlite3.Connection, schema: str) -> set[str]:
-    """The column names of the ``replies`` table in the attached database ``schema``."""
-    return {row[1] for row in conn.execute(f"PRAGMA {schema}.table_info(replies)")}
 
 
 def _contiguous_runs(indices: list[int]) -> list[tuple[int, int]]:

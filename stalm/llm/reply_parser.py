@@ -6,6 +6,8 @@ many lines, carries a ``#`` comment after every tuple, and often closes with a `
 up *inside* the last comment (``('place', 'wine', 'on', 'counter2') # ... the goal ]``). Names
 come with stray spaces (``'left _of'``). A small hand-written scanner reads this; ``eval`` and
 ``ast.literal_eval`` are never used, so a reply can at worst produce errors, never run code.
+This module chooses the list and assembles the plan; :mod:`stalm.llm.reply_scanner` reads the
+text into raw steps and :mod:`stalm.llm.reply_steps` turns each into an action or an error.
 
 Decisions (each is a policy the planner relies on, so it is written down here):
 
@@ -42,93 +44,18 @@ Decisions (each is a policy the planner relies on, so it is written down here):
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
-from stalm.domain.actions import DIRECTIONS, Direction, DiscreteAction, Open, Pick, Place
+from stalm.domain.actions import DiscreteAction
 from stalm.domain.vocabulary import Vocabulary
-
-ErrorKind = Literal["syntax", "unknown_operator", "unknown_name", "arity", "wrong_kind"]
+from stalm.llm.reply_scanner import RawList, Scanner, candidate_starts
+from stalm.llm.reply_steps import Interpreter, ParsedStep, StepError, has_operator
 
 MAX_REPLY_CHARS = 65_536
 """How much of a reply is read: far beyond any real reply (the authors' 500 tokens are a few
 thousand characters), small enough that an endless or hostile one is read in milliseconds."""
-
-_PLAN_START = re.compile(r"\bplan\s*=\s*\[", re.IGNORECASE)
-_BARE_LIST_START = re.compile(r"\[\s*\(")
-_LIST_MARKER = re.compile(r"(?:\d{1,3}\s*[.):]|[-*•])\s*(?=[(\[])")
-_SEPARATORS = re.compile(r"[\s\-]+")
-_BARE_WORD_STOP = frozenset(",()[]'\"#`\n")
-_OPERATOR_ALIASES: dict[str, str] = {
-    "pick": "pick",
-    "pickup": "pick",
-    "place": "place",
-    "open": "open",
-}
-_DIRECTION_ALIASES: dict[str, Direction] = {
-    **{direction.replace("_", ""): direction for direction in DIRECTIONS},
-    "left": "left_of",
-    "right": "right_of",
-    "front": "front_of",
-    "infrontof": "front_of",
-    "infront": "front_of",
-    "behind": "behind_of",
-    "ontopof": "on",
-    "onto": "on",
-}
-_ARITY: dict[str, int] = {"pick": 1, "place": 3, "open": 1}
-_SIGNATURE: dict[str, str] = {
-    "pick": "('pick', object)",
-    "place": "('place', object, direction, reference)",
-    "open": "('open', door)",
-}
-_KIND_WORDS: dict[str, str] = {"movable": "movable object", "region": "region", "door": "door"}
-
-
-@dataclass(frozen=True)
-class StepError:
-    """Why one step of the reply's plan list is not an action of this problem.
-
-    ``index`` is the step's 0-based position in the list and ``raw`` its text as written.
-    """
-
-    index: int
-    raw: str
-    kind: ErrorKind
-    message: str
-
-    def to_json(self) -> dict[str, Any]:
-        """A JSON-able dict with the index, raw text, error kind and message."""
-        return {"index": self.index, "raw": self.raw, "kind": self.kind, "message": self.message}
-
-
-@dataclass(frozen=True)
-class ParsedStep:
-    """One entry of the plan list: its text, the strings read, and the action or the error.
-
-    Exactly one of ``action`` and ``error`` is set. ``notes`` say which near misses were
-    normalised to reach ``action`` (e.g. ``"'left _of' read as 'left_of'"``).
-    """
-
-    index: int
-    raw: str
-    items: tuple[str, ...]
-    action: DiscreteAction | None
-    error: StepError | None
-    notes: tuple[str, ...] = ()
-
-    def to_json(self) -> dict[str, Any]:
-        """A JSON-able dict; the action as a list of strings, or null."""
-        return {
-            "index": self.index,
-            "raw": self.raw,
-            "items": list(self.items),
-            "action": list(self.action.as_tuple()) if self.action is not None else None,
-            "error": self.error.to_json() if self.error is not None else None,
-            "notes": list(self.notes),
-        }
 
 
 @dataclass(frozen=True)
@@ -159,343 +86,18 @@ class ParsedReply:
         }
 
 
-# ---------------------------------------------------------------------------------------------
-# Scanning: text -> raw steps (strings only, no meaning yet)
-
-
-ListEnd = Literal["bracket", "comment", "fence", "text", "eof"]
-
-
-@dataclass(frozen=True)
-class _RawStep:
-    """A tuple as written: its text and strings, or the syntax problem that stopped reading."""
-
-    raw: str
-    items: tuple[str, ...]
-    problem: str | None = None
-    cut_off: bool = False
-
-
-@dataclass(frozen=True)
-class _RawList:
-    steps: tuple[_RawStep, ...]
-    end: ListEnd
-
-
-class _Scanner:
-    """A cursor over ``text[pos:end]``; each method consumes one construct and never raises.
-
-    ``end`` is where the next candidate list starts (or the reply's end): a list is never read
-    into the next one, which keeps the whole parse linear. Reaching an ``end`` that is not the
-    reply's end is not a cut-off reply: the list just stops there, like one followed by text.
-    """
-
-    def __init__(self, text: str, pos: int, end: int | None = None) -> None:
-        self.text = text
-        self.pos = pos
-        self.end = len(text) if end is None else end
-        self.bounded = self.end < len(text)
-
-    def at_end(self) -> bool:
-        return self.pos >= self.end
-
-    def peek(self) -> str:
-        return self.text[self.pos] if self.pos < self.end else ""
-
-    def skip_blanks(self, also: str = "") -> None:
-        """Skip whitespace and any of the characters in ``also`` (separating commas)."""
-        text, end = self.text, self.end
-        while self.pos < end and (text[self.pos].isspace() or text[self.pos] in also):
-            self.pos += 1
-
-    def rest_of_line(self) -> str:
-        """Consume up to (not including) the next newline and return what was consumed."""
-        end = self.text.find("\n", self.pos, self.end)
-        end = self.end if end < 0 else end
-        line = self.text[self.pos : end]
-        self.pos = end
-        return line
-
-    def read_list(self) -> _RawList:
-        """Read the steps of a list whose ``[`` was just consumed (see the module's rules)."""
-        steps: list[_RawStep] = []
-        bracket_in_comment = False
-        while True:
-            self.skip_blanks(also=",")
-            char = self.peek()
-            if not char:
-                unfinished: ListEnd = "text" if self.bounded else "eof"
-                return _RawList(tuple(steps), "comment" if bracket_in_comment else unfinished)
-            if char == "#":
-                bracket_in_comment = "]" in self.rest_of_line()
-            elif char == "]":
-                self.pos += 1
-                return _RawList(tuple(steps), "bracket")
-            elif char in "([":
-                step = self.read_step()
-                steps.append(step)
-                bracket_in_comment = False
-                if step.cut_off:
-                    return _RawList(tuple(steps), "eof")
-            elif char == "`":
-                return _RawList(tuple(steps), "fence")
-            else:
-                marker = _LIST_MARKER.match(self.text, self.pos)
-                if marker is not None:
-                    self.pos = marker.end()
-                    continue
-                return _RawList(tuple(steps), "comment" if bracket_in_comment else "text")
-
-    def read_step(self) -> _RawStep:
-        """Read one ``(...)`` (or ``[...]``) of strings or bare words; recover at line end."""
-        start = self.pos
-        closer = ")" if self.text[start] == "(" else "]"
-        self.pos += 1
-        items: list[str] = []
-        while True:
-            self.skip_blanks(also=",")
-            char = self.peek()
-            if not char and self.bounded:
-                return self._broken(start, items, "the step is not closed")
-            if not char:
-                return self._broken(start, items, "the step is cut off", cut_off=True)
-            if char in ")]":
-                self.pos += 1
-                problem = None if char == closer else f"the step closes with {char!r}"
-                return _RawStep(self.text[start : self.pos].strip(), tuple(items), problem)
-            if char == "#":
-                self.rest_of_line()
-            elif char in "'\"":
-                value = self.read_string(char)
-                if value is None:
-                    cut_off = self.at_end() and not self.bounded
-                    return self._broken(start, items, "unterminated string", cut_off=cut_off)
-                items.append(value)
-            elif char in "([`":
-                return self._broken(start, items, f"unexpected {char!r} inside the step")
-            else:
-                items.append(self.read_bare_word())
-
-    def read_string(self, quote: str) -> str | None:
-        """A quoted string on one line (backslash escapes the next character), or None."""
-        chars: list[str] = []
-        pos = self.pos + 1
-        text, end = self.text, self.end
-        while pos < end:
-            char = text[pos]
-            if char == "\\" and pos + 1 < end and text[pos + 1] != "\n":
-                chars.append(text[pos + 1])
-                pos += 2
-                continue
-            if char == quote:
-                self.pos = pos + 1
-                return "".join(chars)
-            if char == "\n":
-                break
-            chars.append(char)
-            pos += 1
-        self.pos = pos
-        return None
-
-    def read_bare_word(self) -> str:
-        """An unquoted item such as ``pick`` in ``(pick, coke)``: up to the next delimiter."""
-        start = self.pos
-        while self.pos < self.end and self.text[self.pos] not in _BARE_WORD_STOP:
-            self.pos += 1
-        return self.text[start : self.pos].strip()
-
-    def _broken(
-        self, start: int, items: list[str], problem: str, cut_off: bool = False
-    ) -> _RawStep:
-        """Give up on this step: skip the rest of its line so the list can go on after it."""
-        if not cut_off:
-            self.rest_of_line()
-        raw = self.text[start : self.pos].strip()
-        return _RawStep(raw, tuple(items), problem, cut_off)
-
-
-def _candidate_starts(text: str) -> list[tuple[int, int]]:
-    """``(where it starts, just after its [)`` of every ``plan = [``, or of the first bare
-    ``[(``."""
-    starts = [(match.start(), match.end()) for match in _PLAN_START.finditer(text)]
-    if not starts:
-        bare = _BARE_LIST_START.search(text)
-        if bare is not None:
-            starts = [(bare.start(), bare.start() + 1)]
-    return starts
-
-
-# ---------------------------------------------------------------------------------------------
-# Interpretation: raw steps -> actions or errors
-
-
-def _key(word: str) -> str:
-    """Case, spacing, hyphens and underscores do not distinguish names for the model."""
-    return _normal(word).replace("_", "")
-
-
-def _normal(word: str) -> str:
-    """Lower case, runs of spaces/hyphens as one underscore, no underscore runs or edges."""
-    word = _SEPARATORS.sub("_", word.strip().strip("`*.:").lower())
-    return re.sub(r"_+", "_", word).strip("_")
-
-
-def _expected_kind(operator: str, position: int, direction: Direction) -> str:
-    """The kind of entity an argument must name; place's reference depends on ``on``."""
-    if operator == "open":
-        return "door"
-    if operator == "place" and position == 2:
-        return "region" if direction == "on" else "movable"
-    return "movable"
-
-
-def _kind_message(
-    operator: str, position: int, direction: Direction, name: str, kind: str | None
-) -> str:
-    """Say which entity was of the wrong kind for which role, and what the role needs."""
-    what = _KIND_WORDS.get(kind or "", "entity")
-    if operator == "pick":
-        return f"cannot pick {what} {name!r}: only movable objects are picked"
-    if operator == "open":
-        return f"cannot open {what} {name!r}: only doors are opened"
-    if position == 0:
-        return f"cannot place {what} {name!r}: only movable objects are placed"
-    if direction == "on":
-        return f"cannot place 'on' {what} {name!r}: 'on' needs a region"
-    return f"cannot place {direction!r} {what} {name!r}: {direction!r} needs a movable object"
-
-
-@dataclass(frozen=True)
-class _Resolved:
-    value: str | None
-    note: str | None = None
-    error: str | None = None
-
-
-class _Interpreter:
-    """Turns raw steps into actions against one vocabulary; notes and errors are values."""
-
-    def __init__(self, vocabulary: Vocabulary) -> None:
-        self.vocabulary = vocabulary
-        by_key: dict[str, list[str]] = {}
-        for name in vocabulary.all_names:
-            by_key.setdefault(_key(name), []).append(name)
-        self.by_key = by_key
-
-    def step(self, index: int, raw: _RawStep) -> ParsedStep:
-        """The action a raw step names, or the first reason it names none."""
-        notes: list[str] = []
-
-        def fail(kind: ErrorKind, message: str) -> ParsedStep:
-            error = StepError(index, raw.raw, kind, message)
-            return ParsedStep(index, raw.raw, raw.items, None, error, tuple(notes))
-
-        if raw.problem is not None:
-            return fail("syntax", raw.problem)
-        items = [item for item in raw.items if item.strip()]
-        if len(items) < len(raw.items):
-            notes.append("empty strings ignored")
-        if not items:
-            return fail("syntax", "the step is empty")
-        operator = _OPERATOR_ALIASES.get(_key(items[0]))
-        if operator is None:
-            return fail("unknown_operator", f"unknown operator {items[0]!r}")
-        if operator != items[0]:
-            notes.append(f"{items[0]!r} read as {operator!r}")
-        args = items[1:]
-        if len(args) != _ARITY[operator]:
-            return fail(
-                "arity",
-                f"{operator} takes {_ARITY[operator]} argument(s) as {_SIGNATURE[operator]}, "
-                f"got {len(args)}",
-            )
-        direction: Direction = "on"
-        if operator == "place":
-            read = _DIRECTION_ALIASES.get(_key(args[1]))
-            if read is None:
-                return fail("unknown_name", f"unknown direction {args[1]!r}")
-            if read != args[1]:
-                notes.append(f"{args[1]!r} read as {read!r}")
-            direction = read
-        names: list[str] = []
-        for position, arg in enumerate(args):
-            if operator == "place" and position == 1:
-                names.append(direction)
-                continue
-            expected = _expected_kind(operator, position, direction)
-            resolved = self.name(arg, expected)
-            if resolved.value is None:
-                return fail("unknown_name", resolved.error or f"unknown name {arg!r}")
-            if resolved.note is not None:
-                notes.append(resolved.note)
-            kind = self.vocabulary.kind_of(resolved.value)
-            if kind != expected:
-                message = _kind_message(operator, position, direction, resolved.value, kind)
-                return fail("wrong_kind", message)
-            names.append(resolved.value)
-        action: DiscreteAction
-        if operator == "pick":
-            action = Pick(names[0])
-        elif operator == "open":
-            action = Open(names[0])
-        elif names[0] == names[2]:
-            return fail("wrong_kind", f"cannot place {names[0]!r} relative to itself")
-        else:
-            action = Place(names[0], direction, names[2])
-        return ParsedStep(index, raw.raw, raw.items, action, None, tuple(notes))
-
-    def name(self, word: str, expected: str) -> _Resolved:
-        """Exact name; else the one name equal up to case/spacing; else a unique first word."""
-        if self.vocabulary.kind_of(word) is not None:
-            return _Resolved(word)
-        same = self.by_key.get(_key(word), [])
-        if len(same) == 1:
-            return _Resolved(same[0], f"{word!r} read as {same[0]!r}")
-        normal = _normal(word)
-        if normal and len(same) == 0:
-            names = self.names_of_kind(expected)
-            longer = [name for name in names if _normal(name).startswith(normal + "_")]
-            if len(longer) == 1:
-                return _Resolved(longer[0], f"{word!r} read as {longer[0]!r}")
-            if len(longer) > 1:
-                options = ", ".join(repr(name) for name in longer)
-                return _Resolved(None, error=f"ambiguous name {word!r} (could be {options})")
-        if len(same) > 1:
-            options = ", ".join(repr(name) for name in same)
-            return _Resolved(None, error=f"ambiguous name {word!r} (could be {options})")
-        return _Resolved(None, error=f"unknown name {word!r}")
-
-    def names_of_kind(self, kind: str) -> tuple[str, ...]:
-        if kind == "movable":
-            return self.vocabulary.movables
-        if kind == "region":
-            return self.vocabulary.regions
-        return self.vocabulary.doors
-
-
-# ---------------------------------------------------------------------------------------------
-# The public entry point
-
-
-def _has_operator(candidate: _RawList) -> bool:
-    return any(
-        step.items and _OPERATOR_ALIASES.get(_key(step.items[0])) is not None
-        for step in candidate.steps
-    )
-
-
-def _choose_list(text: str) -> _RawList | None:
+def _choose_list(text: str) -> RawList | None:
     """The last list with a known operator in some step; else the last list (see module doc).
 
     Candidates are read from the last one backwards, each up to where the next one starts, so
     a reply is scanned at most once however many candidates it holds.
     """
-    fallback: _RawList | None = None
+    fallback: RawList | None = None
     end = len(text)
-    for begin, start in reversed(_candidate_starts(text)):
-        candidate = _Scanner(text, start, end).read_list()
+    for begin, start in reversed(candidate_starts(text)):
+        candidate = Scanner(text, start, end).read_list()
         end = begin
-        if _has_operator(candidate):
+        if has_operator(candidate):
             return candidate
         fallback = fallback or candidate
     return fallback
@@ -526,7 +128,7 @@ def parse_reply(text: str, vocabulary: Vocabulary) -> ParsedReply:
     chosen = _choose_list(text)
     if chosen is None:
         return ParsedReply((), (), (), "no plan list (plan = [...]) in the reply")
-    interpreter = _Interpreter(vocabulary)
+    interpreter = Interpreter(vocabulary)
     steps = tuple(interpreter.step(index, raw) for index, raw in enumerate(chosen.steps))
     errors = tuple(step.error for step in steps if step.error is not None)
     if chosen.end == "eof":

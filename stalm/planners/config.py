@@ -101,7 +101,8 @@ class PlannerConfig:
 def llm_backend(settings: RunSettings) -> LLMBackend:
     """The configured backend behind the reply cache."""
     from stalm.llm.backends import make_backend
-    from stalm.llm.cache import CachedBackend, ReplyCache
+    from stalm.llm.cache import CachedBackend
+    from stalm.llm.cache_file import ReplyCache
 
     llm = settings.llm
     cache = ReplyCache(llm.cache_file) if llm.cache_file is not None else None

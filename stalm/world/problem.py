@@ -18,7 +18,8 @@ from stalm.errors import StalmError
 from stalm.geometry.directions import Direction
 from stalm.geometry.transforms import se2_to_world, wrap_angle
 from stalm.world import robot as robot_model
-from stalm.world.spec import ProblemSpec, load_problem_file
+from stalm.world.problem_file import load_problem_file
+from stalm.world.spec import ProblemSpec
 from stalm.world.state import ObjectPose, RobotConf, State
 
 PROBLEM_HASH_FIELD = "problem_hash"

@@ -1,6 +1,7 @@
-"""The PyBullet scene built from a problem spec, and the queries the planner makes of it.
+"""The PyBullet scene of one problem: setting it from a State, and the queries the planner makes.
 
-One :class:`Sim` owns one DIRECT client. The world is set kinematically from a
+One :class:`Sim` owns one DIRECT client; its bodies are built once by
+:func:`stalm.world.scene_build.build_bodies`. The world is set kinematically from a
 :class:`~stalm.world.state.State` and queried; physics is never stepped. Movable objects and
 the robot are given mass so Bullet's broadphase reports their contacts with the static scene
 (static-static pairs are never tested), which makes one ``performCollisionDetection`` call
@@ -20,14 +21,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
 
 import pybullet as p
-import pybullet_data
 
 from stalm.geometry.transforms import Pose3, quat_yaw, yaw_quat
 from stalm.world import robot as robot_model
-from stalm.world.spec import GRILL_HANDLE_REACH, DoorSpec, ObjectSpec, ProblemSpec, RegionSpec
+from stalm.world.scene_build import build_bodies
+from stalm.world.spec import ProblemSpec
 from stalm.world.state import Grasp, ObjectPose, RobotConf, State
 
 QUERIED_GROUP = 2
@@ -43,29 +43,6 @@ GRASP_LINK = 11
 """The Panda's ``panda_grasptarget`` link: the point between the fingertips."""
 ARM_JOINTS = tuple(range(7))
 ARM_JOINT_LIST = list(ARM_JOINTS)
-FINGER_JOINTS = (9, 10)
-
-
-@dataclass
-class Bodies:
-    """PyBullet body ids by name and by role."""
-
-    walls: dict[str, int] = field(default_factory=dict)
-    regions: dict[str, int] = field(default_factory=dict)
-    doors: dict[str, int] = field(default_factory=dict)
-    objects: dict[str, int] = field(default_factory=dict)
-    base: int = -1
-    arm: int = -1
-    floor: int = -1
-
-    def name_of(self, body: int) -> str:
-        for group in (self.walls, self.regions, self.doors, self.objects):
-            for name, bid in group.items():
-                if bid == body:
-                    return name
-        if body in (self.base, self.arm):
-            return "robot"
-        return f"body{body}"
 
 
 class Sim:
@@ -78,14 +55,13 @@ class Sim:
     def __init__(self, problem: ProblemSpec) -> None:
         self.problem = problem
         self.client = p.connect(p.DIRECT)
-        self.bodies = Bodies()
+        self.bodies = build_bodies(self.client, problem)
         self.collision_checks = 0
         self._held: Grasp | None = None
         self._held_yaw_offset = 0.0
         self._gripper: Pose3 | None = None
         """The grasp point's world pose in the arm's current configuration, once asked for."""
         self._robot = RobotConf.make((0.0, 0.0, 0.0), robot_model.CARRY_LIFT, robot_model.CARRY_ARM)
-        self._build()
         self._static_ids = frozenset(self.bodies.walls.values()) | frozenset(
             self.bodies.regions.values()
         )
@@ -98,168 +74,6 @@ class Sim:
         """Every body's link indices (-1 is the base), for setting collision masks."""
         self._queried: frozenset[int] | None = None
         """The bodies the collision masks are set to test (None: masks not set yet)."""
-
-    # ------------------------------------------------------------------ building
-    def _build(self) -> None:
-        c = self.client
-        p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
-        (x0, y0), (x1, y1) = self.problem.floor
-        floor_visual = p.createVisualShape(
-            p.GEOM_BOX,
-            halfExtents=[(x1 - x0) / 2, (y1 - y0) / 2, 0.005],
-            rgbaColor=[0.86, 0.84, 0.80, 1],
-            physicsClientId=c,
-        )
-        self.bodies.floor = p.createMultiBody(
-            0, -1, floor_visual, [(x0 + x1) / 2, (y0 + y1) / 2, -0.005], physicsClientId=c
-        )
-        for wall in self.problem.walls:
-            self.bodies.walls[wall.name] = self._box(
-                [s / 2 for s in wall.size], wall.center, wall.yaw, wall.color
-            )
-        for region in self.problem.regions:
-            self.bodies.regions[region.name] = self._region_body(region)
-        for door in self.problem.doors:
-            self.bodies.doors[door.name] = self._door_body(door)
-        for obj in self.problem.objects:
-            self.bodies.objects[obj.name] = self._object_body(obj)
-        self._build_robot()
-
-    def _box(
-        self,
-        half: Sequence[float],
-        center: Sequence[float],
-        yaw: float,
-        color: Sequence[float],
-        mass: float = 0.0,
-    ) -> int:
-        c = self.client
-        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half), physicsClientId=c)
-        vis = p.createVisualShape(
-            p.GEOM_BOX, halfExtents=list(half), rgbaColor=list(color), physicsClientId=c
-        )
-        return int(
-            p.createMultiBody(mass, col, vis, list(center), yaw_quat(yaw), physicsClientId=c)
-        )
-
-    def _region_body(self, region: RegionSpec) -> int:
-        thickness = region.thickness if region.thickness is not None else region.top
-        half = (region.size[0] / 2, region.size[1] / 2, thickness / 2)
-        center = (region.center[0], region.center[1], region.top - thickness / 2)
-        return self._box(half, center, region.yaw, region.color)
-
-    def _door_body(self, door: DoorSpec) -> int:
-        """Door frame origin at the hinge on the floor; the panel extends along its +x."""
-        c = self.client
-        panel_half = [door.width / 2, door.thickness / 2, door.height / 2]
-        panel_pos = [door.width / 2, 0.0, door.height / 2]
-        handle_half = [0.02, door.thickness / 2 + 0.05, 0.06]
-        handle_pos = [door.handle_distance, 0.0, door.handle_height]
-        col = p.createCollisionShapeArray(
-            [p.GEOM_BOX, p.GEOM_BOX],
-            halfExtents=[panel_half, handle_half],
-            collisionFramePositions=[panel_pos, handle_pos],
-            physicsClientId=c,
-        )
-        vis = p.createVisualShapeArray(
-            [p.GEOM_BOX, p.GEOM_BOX],
-            halfExtents=[panel_half, handle_half],
-            visualFramePositions=[panel_pos, handle_pos],
-            rgbaColors=[list(door.color), [0.85, 0.75, 0.2, 1.0]],
-            physicsClientId=c,
-        )
-        # mass > 0 although physics never runs: Bullet refreshes the broadphase bounds only of
-        # non-static bodies, so a static door moved by a reset would keep stale bounds
-        return int(
-            p.createMultiBody(
-                1.0,
-                col,
-                vis,
-                [door.hinge[0], door.hinge[1], 0.0],
-                yaw_quat(door.closed_yaw),
-                physicsClientId=c,
-            )
-        )
-
-    def _object_body(self, obj: ObjectSpec) -> int:
-        """Object frame origin at the centre of its bottom face, so z is the support height."""
-        c = self.client
-        color = list(obj.color)
-        if obj.shape == "grill":
-            assert obj.size is not None
-            sx, sy, sz = obj.size
-            body_half = [sx / 2, sy / 2, sz / 2]
-            handle_half = [0.02, GRILL_HANDLE_REACH / 2, 0.02]
-            handle_z = sz * 0.75
-            offsets = [
-                [0.0, 0.0, sz / 2],
-                [0.0, sy / 2 + GRILL_HANDLE_REACH / 2, handle_z],
-                [0.0, -(sy / 2 + GRILL_HANDLE_REACH / 2), handle_z],
-            ]
-            halves = [body_half, handle_half, handle_half]
-            col = p.createCollisionShapeArray(
-                [p.GEOM_BOX] * 3,
-                halfExtents=halves,
-                collisionFramePositions=offsets,
-                physicsClientId=c,
-            )
-            vis = p.createVisualShapeArray(
-                [p.GEOM_BOX] * 3,
-                halfExtents=halves,
-                visualFramePositions=offsets,
-                rgbaColors=[color, [0.15, 0.15, 0.15, 1], [0.15, 0.15, 0.15, 1]],
-                physicsClientId=c,
-            )
-        else:
-            assert obj.radius is not None and obj.height is not None
-            col = p.createCollisionShape(
-                p.GEOM_CYLINDER,
-                radius=obj.radius,
-                height=obj.height,
-                collisionFramePosition=[0, 0, obj.height / 2],
-                physicsClientId=c,
-            )
-            vis = p.createVisualShape(
-                p.GEOM_CYLINDER,
-                radius=obj.radius,
-                length=obj.height,
-                rgbaColor=color,
-                visualFramePosition=[0, 0, obj.height / 2],
-                physicsClientId=c,
-            )
-        return int(p.createMultiBody(0.1, col, vis, [0, 0, -10.0], physicsClientId=c))
-
-    def _build_robot(self) -> None:
-        c = self.client
-        col = p.createCollisionShape(
-            p.GEOM_CYLINDER,
-            radius=robot_model.BASE_RADIUS,
-            height=robot_model.BASE_HEIGHT,
-            collisionFramePosition=[0, 0, robot_model.BASE_HEIGHT / 2],
-            physicsClientId=c,
-        )
-        vis = p.createVisualShapeArray(
-            [p.GEOM_CYLINDER, p.GEOM_BOX],
-            radii=[robot_model.BASE_RADIUS, 0.0],
-            lengths=[robot_model.BASE_HEIGHT, 0.0],
-            halfExtents=[[0, 0, 0], [0.06, 0.06, 0.5]],
-            visualFramePositions=[
-                [0, 0, robot_model.BASE_HEIGHT / 2],
-                [robot_model.ARM_MOUNT_FORWARD, 0, 0.5],
-            ],
-            rgbaColors=[[0.25, 0.25, 0.3, 1], [0.5, 0.5, 0.55, 1]],
-            physicsClientId=c,
-        )
-        self.bodies.base = int(p.createMultiBody(5.0, col, vis, [0, 0, 0], physicsClientId=c))
-        self.bodies.arm = int(
-            p.loadURDF("franka_panda/panda.urdf", [0, 0, 1], useFixedBase=True, physicsClientId=c)
-        )
-        for link in range(-1, p.getNumJoints(self.bodies.arm, physicsClientId=c)):
-            p.setCollisionFilterPair(
-                self.bodies.arm, self.bodies.base, link, -1, 0, physicsClientId=c
-            )
-        for joint in FINGER_JOINTS:
-            p.resetJointState(self.bodies.arm, joint, robot_model.FINGER_OPENING, physicsClientId=c)
 
     # ------------------------------------------------------------------ state
     def set_state(self, state: State) -> None:

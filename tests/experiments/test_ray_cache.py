@@ -6,7 +6,7 @@ from pathlib import Path
 
 from stalm.experiments.ray_runner import merge_cache_bytes
 from stalm.llm.backends.base import LLMReply, LLMRequest
-from stalm.llm.cache import CachedSample, ReplyCache
+from stalm.llm.cache_file import CachedSample, ReplyCache
 
 
 def _sample(key: str, text: str) -> CachedSample:

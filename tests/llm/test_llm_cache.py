@@ -14,13 +14,8 @@ import pytest
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
 from stalm.llm.backends import LLMBackend, LLMRequest
-from stalm.llm.cache import (
-    CachedBackend,
-    ReplyCache,
-    check_cache_mode,
-    default_cache_path,
-    sample_key,
-)
+from stalm.llm.cache import CachedBackend, check_cache_mode
+from stalm.llm.cache_file import ReplyCache, default_cache_path, sample_key
 from stalm.llm.constraints import build_constraint
 
 from .llm_doubles import CountingFakeBackend, FailingFakeBackend

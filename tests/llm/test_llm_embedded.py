@@ -11,7 +11,7 @@ import pytest
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
 from stalm.llm.backends import EmbeddedBackend, LLMRequest, OutputConstraint, embedded
-from stalm.llm.backends.embedded import locate_embedded_model
+from stalm.llm.backends.embedded_models import locate_embedded_model
 from stalm.llm.constraints import ConstraintLimits, build_constraint, build_gbnf
 from stalm.llm.reply_parser import parse_reply
 
@@ -134,7 +134,8 @@ def test_a_deadline_stops_sampling_and_cut_replies_are_not_cached(
 ) -> None:
     import time
 
-    from stalm.llm.cache import CachedBackend, ReplyCache
+    from stalm.llm.cache import CachedBackend
+    from stalm.llm.cache_file import ReplyCache
 
     request = LLMRequest(system="You answer briefly.", user="Say hi.", n=3, max_tokens=8, seed=1)
     passed = dataclasses.replace(request, deadline=time.monotonic() - 1.0)

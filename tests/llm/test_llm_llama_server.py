@@ -14,7 +14,7 @@ import pytest
 
 from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.backends import LLMRequest, OpenAICompatibleBackend
-from stalm.llm.backends.embedded import locate_embedded_model
+from stalm.llm.backends.embedded_models import locate_embedded_model
 from stalm.llm.constraints import ConstraintLimits, build_constraint
 from stalm.llm.reply_parser import parse_reply
 

@@ -368,7 +368,8 @@ def test_openai_key_still_goes_to_openai(monkeypatch: pytest.MonkeyPatch) -> Non
 def test_the_reply_cache_accepts_a_batch_the_deadline_cut_short(
     scripted_server: ScriptedHTTPServerDouble, tmp_path
 ) -> None:
-    from stalm.llm.cache import CachedBackend, ReplyCache
+    from stalm.llm.cache import CachedBackend
+    from stalm.llm.cache_file import ReplyCache
 
     scripted_server.script = [ScriptedReply(status=503, body={"error": {"message": "busy"}})]
     retry = RetryPolicy(max_attempts=4, base_delay_s=30.0, max_delay_s=60.0)

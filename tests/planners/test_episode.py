@@ -12,7 +12,8 @@ import pytest
 from stalm.domain.actions import Pick
 from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.backends.base import LLMReply, LLMRequest, LLMResponse
-from stalm.llm.cache import CachedBackend, ReplyCache
+from stalm.llm.cache import CachedBackend
+from stalm.llm.cache_file import ReplyCache
 from stalm.llm.problem_prompt import problem_prompt
 from stalm.planners.episode import Episode
 from stalm.planners.proposers import ask_for_task_plans

@@ -15,7 +15,8 @@ import yaml
 
 from stalm.domain.actions import Open, Pick, Place
 from stalm.llm.backends.base import LLMRequest, LLMResponse
-from stalm.llm.cache import CachedBackend, ReplyCache
+from stalm.llm.cache import CachedBackend
+from stalm.llm.cache_file import ReplyCache
 from stalm.llm.prompt import PromptOptions
 from stalm.planners.llm_mcts import (
     LlmMctsPlanner,

@@ -7,7 +7,7 @@ import yaml
 
 from stalm.errors import StalmError
 from stalm.world.problem import Problem, load_problem
-from stalm.world.spec import load_problem_file, parse_problem
+from stalm.world.problem_file import load_problem_file, parse_problem
 
 PAPER_PLACEMENT_COUNTS = {"P1": 31, "P2": 23, "P3": 50, "P4": 27, "P6": 27}
 

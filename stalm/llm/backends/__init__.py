@@ -37,13 +37,14 @@ from stalm.llm.backends.base import (
     LLMResponse,
     OutputConstraint,
 )
-from stalm.llm.backends.embedded import DEFAULT_EMBEDDED_MODEL, EmbeddedBackend
+from stalm.llm.backends.embedded import EmbeddedBackend
+from stalm.llm.backends.embedded_models import DEFAULT_EMBEDDED_MODEL
 from stalm.llm.backends.openai_compatible import (
     BASE_URL_ENV,
     ConstraintStyle,
     OpenAICompatibleBackend,
-    RetryPolicy,
 )
+from stalm.llm.backends.retries import RetryPolicy
 
 SPEC_ENV = "STALM_LLM"
 SPEC_HELP = (

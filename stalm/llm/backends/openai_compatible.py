@@ -20,7 +20,9 @@ A request's ``deadline`` (a trial's time budget) bounds everything one request d
 attempt waits at most until the deadline (the whole answer, not just each read: a server that
 trickles its body slowly is cut too), no backoff sleeps past it, and past it no attempt
 starts. What was not answered by then is left out of the response, as the embedded backend
-does; the planner sees its time is up and writes its result.
+does; the planner sees its time is up and writes its result. The deadline and the retries
+live in :mod:`stalm.llm.backends.retries`, reading a completion into replies in
+:mod:`stalm.llm.backends.chat_replies`; this module builds the requests and sends them.
 
 ``OPENAI_API_KEY`` is only ever sent to the OpenAI API itself (``https://api.openai.com``);
 any other server gets ``STALM_LLM_API_KEY`` or no key, so pointing ``--llm`` at some host
@@ -33,15 +35,22 @@ import functools
 import os
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, TypeVar, cast, get_args
+from typing import TYPE_CHECKING, Any, Literal, cast, get_args
 from urllib.parse import urlsplit
 
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMReply, LLMRequest, LLMResponse
-from stalm.llm.constraints import json_reply_to_plan_text
+from stalm.llm.backends.chat_replies import chat_replies
+from stalm.llm.backends.retries import (
+    RETRYABLE_STATUS,
+    DeadlinePassed,
+    RetryPolicy,
+    retry_after_s,
+    run_until,
+    time_left,
+)
 
 if TYPE_CHECKING:  # imported where used: it adds a third of a second to every CLI start
     import openai
@@ -56,46 +65,9 @@ CONSTRAINT_STYLE_ENV = "STALM_LLM_CONSTRAINT_STYLE"
 OPENAI_DEFAULT_BASE_URL = "https://api.openai.com/v1"
 # Local servers accept any key, but the openai client refuses to start without one.
 _PLACEHOLDER_KEY = "sk-no-key-required"
-_RETRYABLE_STATUS = frozenset({408, 409, 429})
 OPENAI_KEY_ENV = "OPENAI_API_KEY"
 DISCOVERY_TIMEOUT_S = 15.0
 """Longest wait for a server's model list: it is asked outside any trial's deadline."""
-_T = TypeVar("_T")
-
-
-class _DeadlinePassed(Exception):
-    """Raised inside the backend when a request's deadline ends a call; never escapes it."""
-
-
-def _left(deadline: float | None) -> float | None:
-    """Seconds until ``deadline`` (None: no deadline); 0 or less when it has passed."""
-    return None if deadline is None else deadline - time.monotonic()
-
-
-def _run_until(call: Callable[[], _T], deadline: float | None) -> _T:
-    """``call()``, abandoned at ``deadline``: a daemon thread runs it and is waited on only
-    until then. HTTP timeouts bound each read, not a whole body a server trickles out slowly,
-    so only this holds a deadline against any server. The abandoned call ends by its own
-    timeout; being a daemon thread it never keeps the process alive."""
-    if deadline is None:
-        return call()
-    outcome: list[Any] = []
-    done = threading.Event()
-
-    def target() -> None:
-        try:
-            outcome.append((True, call()))
-        except BaseException as error:  # handed to the waiting thread as is
-            outcome.append((False, error))
-        done.set()
-
-    threading.Thread(target=target, name="stalm-llm-call", daemon=True).start()
-    if not done.wait(max(0.0, deadline - time.monotonic())):
-        raise _DeadlinePassed
-    ok, value = outcome[0]
-    if not ok:
-        raise value
-    return cast(_T, value)
 
 
 def _is_openai_api(url: str) -> bool:
@@ -119,29 +91,6 @@ def _check_base_url(url: str) -> str:
     return url
 
 
-@dataclass(frozen=True)
-class RetryPolicy:
-    """How often and how patiently to retry rate limits, server errors and timeouts.
-
-    The delay before retry ``k`` (0-based) is ``base_delay_s * 2**k`` capped at
-    ``max_delay_s``, or the server's ``Retry-After`` when that is longer (still capped).
-    """
-
-    max_attempts: int = 4
-    base_delay_s: float = 1.0
-    max_delay_s: float = 30.0
-
-    def __post_init__(self) -> None:
-        if self.max_attempts < 1:
-            raise StalmError(f"retry 'max_attempts' must be at least 1, got {self.max_attempts}")
-
-    def delay_s(self, retry_index: int, retry_after_s: float | None = None) -> float:
-        delay = self.base_delay_s * (2**retry_index)
-        if retry_after_s is not None:
-            delay = max(delay, retry_after_s)
-        return min(delay, self.max_delay_s)
-
-
 def _env(*names: str) -> str | None:
     for name in names:
         value = os.environ.get(name)
@@ -157,29 +106,6 @@ def check_constraint_style(style: str) -> ConstraintStyle:
             f"unknown constraint style {style!r}; expected one of {', '.join(CONSTRAINT_STYLES)}"
         )
     return cast(ConstraintStyle, style)
-
-
-def _retry_after_s(error: openai.APIStatusError) -> float | None:
-    value = error.response.headers.get("retry-after")
-    try:
-        return float(value) if value is not None else None
-    except ValueError:
-        return None
-
-
-def _split_tokens(total: int, texts: Sequence[str]) -> list[int]:
-    """Share a call's completion tokens among its choices in proportion to their length.
-
-    Servers report usage per call, not per choice; the split keeps per-reply numbers
-    plausible while their sum stays exactly what the server reported.
-    """
-    if not texts:
-        return []
-    lengths = [max(len(text), 1) for text in texts]
-    whole = sum(lengths)
-    shares = [total * length // whole for length in lengths]
-    shares[0] += total - sum(shares)
-    return shares
 
 
 class OpenAICompatibleBackend:
@@ -290,11 +216,11 @@ class OpenAICompatibleBackend:
 
         wait_s = min(self._timeout_s, DISCOVERY_TIMEOUT_S)
         try:
-            listing = _run_until(
+            listing = run_until(
                 lambda: self._client.models.list(timeout=wait_s), time.monotonic() + wait_s
             )
             names = [entry.id for entry in listing.data]
-        except (_DeadlinePassed, openai.APITimeoutError):
+        except (DeadlinePassed, openai.APITimeoutError):
             raise StalmError(
                 f"{self.url} did not list its models within {wait_s:g} s; name the model with "
                 f"{MODEL_ENV} or --llm URL#MODEL"
@@ -332,7 +258,7 @@ class OpenAICompatibleBackend:
                     ]
                     for future in futures:
                         replies.extend(future.result()[:1])
-        except _DeadlinePassed:
+        except DeadlinePassed:
             # what was answered in time is the response (see the module docstring); it stops
             # at the first sample cut, so reply i is still sample i (the cache keys on that)
             pass
@@ -369,7 +295,7 @@ class OpenAICompatibleBackend:
         return kwargs
 
     def _call(self, request: LLMRequest, model: str, n: int, seed: int | None) -> list[LLMReply]:
-        """One HTTP request (with retries) -> its choices as replies; :class:`_DeadlinePassed`
+        """One HTTP request (with retries) -> its choices as replies; :class:`DeadlinePassed`
         when the request's deadline comes first (see the module docstring)."""
         import openai
 
@@ -378,23 +304,23 @@ class OpenAICompatibleBackend:
         deadline = request.deadline
         last_problem = ""
         for attempt in range(self._retry.max_attempts):
-            left = _left(deadline)
+            left = time_left(deadline)
             if left is not None and left <= 0:
-                raise _DeadlinePassed
+                raise DeadlinePassed
             timeout_s = self._timeout_s if left is None else min(self._timeout_s, left)
             started = time.perf_counter()
             retry_after: float | None = None
             try:
-                completion = _run_until(
+                completion = run_until(
                     functools.partial(
                         self._client.chat.completions.create, **kwargs, timeout=timeout_s
                     ),
                     deadline,
                 )
             except openai.APITimeoutError:
-                left = _left(deadline)
+                left = time_left(deadline)
                 if left is not None and left <= 0.05:
-                    raise _DeadlinePassed from None
+                    raise DeadlinePassed from None
                 last_problem = f"no answer within {timeout_s:g} s"
             except openai.APIConnectionError as error:
                 raise StalmError(
@@ -403,9 +329,9 @@ class OpenAICompatibleBackend:
                 ) from error
             except openai.APIStatusError as error:
                 status = error.status_code
-                if status in _RETRYABLE_STATUS or status >= 500:
+                if status in RETRYABLE_STATUS or status >= 500:
                     last_problem = f"HTTP {status}: {error.message}"
-                    retry_after = _retry_after_s(error)
+                    retry_after = retry_after_s(error)
                 else:
                     raise self._status_error(error, where) from error
             except openai.OpenAIError as error:
@@ -417,12 +343,18 @@ class OpenAICompatibleBackend:
                     f"{where} answered with malformed JSON, not a chat completion ({error})"
                 ) from None
             else:
-                return self._replies(completion, request, where, time.perf_counter() - started)
+                return chat_replies(
+                    completion,
+                    request,
+                    where,
+                    time.perf_counter() - started,
+                    json_schema=self._constraint_style == "json_schema",
+                )
             if attempt + 1 < self._retry.max_attempts:
                 delay = self._retry.delay_s(attempt, retry_after)
-                left = _left(deadline)
+                left = time_left(deadline)
                 if left is not None and delay >= left:
-                    raise _DeadlinePassed  # the backoff would outlast the trial's budget
+                    raise DeadlinePassed  # the backoff would outlast the trial's budget
                 self._sleep(delay)
         raise StalmError(f"{where} failed {self._retry.max_attempts} times; last: {last_problem}")
 
@@ -437,42 +369,3 @@ class OpenAICompatibleBackend:
                 f"model name and that the base URL ends in /v1"
             )
         return StalmError(f"{where} refused the request (HTTP {status}): {error.message}")
-
-    def _replies(
-        self, completion: Any, request: LLMRequest, where: str, latency_s: float
-    ) -> list[LLMReply]:
-        try:
-            choices = list(completion.choices)
-            texts = [choice.message.content or "" for choice in choices]
-            finishes = [choice.finish_reason for choice in choices]
-            usage = completion.usage
-            prompt_tokens = int(usage.prompt_tokens) if usage else 0
-            completion_tokens = int(usage.completion_tokens) if usage else 0
-        except (AttributeError, TypeError, ValueError) as error:
-            raise StalmError(
-                f"{where} answered with something that is not a chat completion "
-                f"({type(completion).__name__}: {str(completion)[:80]!r})"
-            ) from error
-        if not choices:
-            raise StalmError(f"{where} returned a chat completion without choices")
-        if request.constraint is not None and self._constraint_style == "json_schema":
-            texts = [self._json_to_text(text) for text in texts]
-        shares = _split_tokens(completion_tokens, texts)
-        return [
-            LLMReply(
-                text=text,
-                prompt_tokens=prompt_tokens if i == 0 else 0,
-                completion_tokens=shares[i],
-                latency_s=latency_s,
-                finish_reason=finishes[i],
-            )
-            for i, text in enumerate(texts)
-        ]
-
-    @staticmethod
-    def _json_to_text(text: str) -> str:
-        """The text form of a JSON reply; a malformed one is kept raw for the parser to reject."""
-        try:
-            return json_reply_to_plan_text(text)
-        except StalmError:
-            return text

@@ -1,0 +1,211 @@
+"""Building one problem's bodies in a PyBullet client: floor, walls, regions, doors, objects and
+the robot (base cylinder and Panda arm).
+
+Kept apart from :mod:`stalm.world.scene`, whose :class:`~stalm.world.scene.Sim` sets and
+queries the world, because building runs once per simulator and is all shapes and colours,
+while setting and querying run millions of times per trial. The bodies are created in a fixed
+order (floor, walls, regions, doors, objects, base, arm), so a body's id is the same in every
+simulator of one problem.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import pybullet as p
+import pybullet_data
+
+from stalm.geometry.transforms import yaw_quat
+from stalm.world import robot as robot_model
+from stalm.world.spec import GRILL_HANDLE_REACH, DoorSpec, ObjectSpec, ProblemSpec, RegionSpec
+
+FINGER_JOINTS = (9, 10)
+
+
+@dataclass
+class Bodies:
+    """PyBullet body ids by name and by role."""
+
+    walls: dict[str, int] = field(default_factory=dict)
+    regions: dict[str, int] = field(default_factory=dict)
+    doors: dict[str, int] = field(default_factory=dict)
+    objects: dict[str, int] = field(default_factory=dict)
+    base: int = -1
+    arm: int = -1
+    floor: int = -1
+
+    def name_of(self, body: int) -> str:
+        for group in (self.walls, self.regions, self.doors, self.objects):
+            for name, bid in group.items():
+                if bid == body:
+                    return name
+        if body in (self.base, self.arm):
+            return "robot"
+        return f"body{body}"
+
+
+def build_bodies(client: int, problem: ProblemSpec) -> Bodies:
+    """Create every body of ``problem`` in ``client``, in a fixed order (the ids follow it)."""
+    c = client
+    bodies = Bodies()
+    p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
+    (x0, y0), (x1, y1) = problem.floor
+    floor_visual = p.createVisualShape(
+        p.GEOM_BOX,
+        halfExtents=[(x1 - x0) / 2, (y1 - y0) / 2, 0.005],
+        rgbaColor=[0.86, 0.84, 0.80, 1],
+        physicsClientId=c,
+    )
+    bodies.floor = p.createMultiBody(
+        0, -1, floor_visual, [(x0 + x1) / 2, (y0 + y1) / 2, -0.005], physicsClientId=c
+    )
+    for wall in problem.walls:
+        bodies.walls[wall.name] = _box(
+            c, [s / 2 for s in wall.size], wall.center, wall.yaw, wall.color
+        )
+    for region in problem.regions:
+        bodies.regions[region.name] = _region_body(c, region)
+    for door in problem.doors:
+        bodies.doors[door.name] = _door_body(c, door)
+    for obj in problem.objects:
+        bodies.objects[obj.name] = _object_body(c, obj)
+    _build_robot(c, bodies)
+    return bodies
+
+
+def _box(
+    client: int,
+    half: Sequence[float],
+    center: Sequence[float],
+    yaw: float,
+    color: Sequence[float],
+    mass: float = 0.0,
+) -> int:
+    c = client
+    col = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half), physicsClientId=c)
+    vis = p.createVisualShape(
+        p.GEOM_BOX, halfExtents=list(half), rgbaColor=list(color), physicsClientId=c
+    )
+    return int(p.createMultiBody(mass, col, vis, list(center), yaw_quat(yaw), physicsClientId=c))
+
+
+def _region_body(client: int, region: RegionSpec) -> int:
+    thickness = region.thickness if region.thickness is not None else region.top
+    half = (region.size[0] / 2, region.size[1] / 2, thickness / 2)
+    center = (region.center[0], region.center[1], region.top - thickness / 2)
+    return _box(client, half, center, region.yaw, region.color)
+
+
+def _door_body(client: int, door: DoorSpec) -> int:
+    """Door frame origin at the hinge on the floor; the panel extends along its +x."""
+    c = client
+    panel_half = [door.width / 2, door.thickness / 2, door.height / 2]
+    panel_pos = [door.width / 2, 0.0, door.height / 2]
+    handle_half = [0.02, door.thickness / 2 + 0.05, 0.06]
+    handle_pos = [door.handle_distance, 0.0, door.handle_height]
+    col = p.createCollisionShapeArray(
+        [p.GEOM_BOX, p.GEOM_BOX],
+        halfExtents=[panel_half, handle_half],
+        collisionFramePositions=[panel_pos, handle_pos],
+        physicsClientId=c,
+    )
+    vis = p.createVisualShapeArray(
+        [p.GEOM_BOX, p.GEOM_BOX],
+        halfExtents=[panel_half, handle_half],
+        visualFramePositions=[panel_pos, handle_pos],
+        rgbaColors=[list(door.color), [0.85, 0.75, 0.2, 1.0]],
+        physicsClientId=c,
+    )
+    # mass > 0 although physics never runs: Bullet refreshes the broadphase bounds only of
+    # non-static bodies, so a static door moved by a reset would keep stale bounds
+    return int(
+        p.createMultiBody(
+            1.0,
+            col,
+            vis,
+            [door.hinge[0], door.hinge[1], 0.0],
+            yaw_quat(door.closed_yaw),
+            physicsClientId=c,
+        )
+    )
+
+
+def _object_body(client: int, obj: ObjectSpec) -> int:
+    """Object frame origin at the centre of its bottom face, so z is the support height."""
+    c = client
+    color = list(obj.color)
+    if obj.shape == "grill":
+        assert obj.size is not None
+        sx, sy, sz = obj.size
+        body_half = [sx / 2, sy / 2, sz / 2]
+        handle_half = [0.02, GRILL_HANDLE_REACH / 2, 0.02]
+        handle_z = sz * 0.75
+        offsets = [
+            [0.0, 0.0, sz / 2],
+            [0.0, sy / 2 + GRILL_HANDLE_REACH / 2, handle_z],
+            [0.0, -(sy / 2 + GRILL_HANDLE_REACH / 2), handle_z],
+        ]
+        halves = [body_half, handle_half, handle_half]
+        col = p.createCollisionShapeArray(
+            [p.GEOM_BOX] * 3,
+            halfExtents=halves,
+            collisionFramePositions=offsets,
+            physicsClientId=c,
+        )
+        vis = p.createVisualShapeArray(
+            [p.GEOM_BOX] * 3,
+            halfExtents=halves,
+            visualFramePositions=offsets,
+            rgbaColors=[color, [0.15, 0.15, 0.15, 1], [0.15, 0.15, 0.15, 1]],
+            physicsClientId=c,
+        )
+    else:
+        assert obj.radius is not None and obj.height is not None
+        col = p.createCollisionShape(
+            p.GEOM_CYLINDER,
+            radius=obj.radius,
+            height=obj.height,
+            collisionFramePosition=[0, 0, obj.height / 2],
+            physicsClientId=c,
+        )
+        vis = p.createVisualShape(
+            p.GEOM_CYLINDER,
+            radius=obj.radius,
+            length=obj.height,
+            rgbaColor=color,
+            visualFramePosition=[0, 0, obj.height / 2],
+            physicsClientId=c,
+        )
+    return int(p.createMultiBody(0.1, col, vis, [0, 0, -10.0], physicsClientId=c))
+
+
+def _build_robot(client: int, bodies: Bodies) -> None:
+    c = client
+    col = p.createCollisionShape(
+        p.GEOM_CYLINDER,
+        radius=robot_model.BASE_RADIUS,
+        height=robot_model.BASE_HEIGHT,
+        collisionFramePosition=[0, 0, robot_model.BASE_HEIGHT / 2],
+        physicsClientId=c,
+    )
+    vis = p.createVisualShapeArray(
+        [p.GEOM_CYLINDER, p.GEOM_BOX],
+        radii=[robot_model.BASE_RADIUS, 0.0],
+        lengths=[robot_model.BASE_HEIGHT, 0.0],
+        halfExtents=[[0, 0, 0], [0.06, 0.06, 0.5]],
+        visualFramePositions=[
+            [0, 0, robot_model.BASE_HEIGHT / 2],
+            [robot_model.ARM_MOUNT_FORWARD, 0, 0.5],
+        ],
+        rgbaColors=[[0.25, 0.25, 0.3, 1], [0.5, 0.5, 0.55, 1]],
+        physicsClientId=c,
+    )
+    bodies.base = int(p.createMultiBody(5.0, col, vis, [0, 0, 0], physicsClientId=c))
+    bodies.arm = int(
+        p.loadURDF("franka_panda/panda.urdf", [0, 0, 1], useFixedBase=True, physicsClientId=c)
+    )
+    for link in range(-1, p.getNumJoints(bodies.arm, physicsClientId=c)):
+        p.setCollisionFilterPair(bodies.arm, bodies.base, link, -1, 0, physicsClientId=c)
+    for joint in FINGER_JOINTS:
+        p.resetJointState(bodies.arm, joint, robot_model.FINGER_OPENING, physicsClientId=c)
