@@ -1,6 +1,7 @@
 """The geometric check of a problem file: what loading alone cannot see.
 
-Loading a problem (:mod:`stalm.world.spec`) checks every field cheaply and stays fast. Whether
+Loading a problem (:mod:`stalm.world.problem_file`, with the field checks of
+:mod:`stalm.world.spec`) checks every field cheaply and stays fast. Whether
 the scene it describes is possible needs the simulator: an object or the robot starting inside
 a wall or another body, a standing pose the robot cannot stand at, or one the base can never
 drive to. A planner meeting such a problem fails late and obscurely (no path, no IK, a

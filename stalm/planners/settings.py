@@ -26,6 +26,7 @@ from typing import Literal
 from stalm.domain.mdp import RewardSettings
 from stalm.domain.samplers import SamplerSettings
 from stalm.errors import StalmError
+from stalm.llm.cache import CacheMode
 from stalm.llm.prompt import PromptOptions
 from stalm.predicates.samples import PredicateSettings
 from stalm.search import SearchSettings
@@ -33,7 +34,6 @@ from stalm.world.problem import Problem
 
 ExecutionRule = Literal["progress", "best_q"]
 ProposerKind = Literal["llm", "symbolic"]
-CacheMode = Literal["use", "refresh", "off", "replay"]
 
 DEFAULT_SIMS: dict[str, int] = {
     "stalm": 30,
