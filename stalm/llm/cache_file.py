@@ -22,11 +22,11 @@ from contextlib import closing, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from stalm.cache_dir import stalm_cache_dir
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMReply, LLMRequest
 
 CACHE_FILE_NAME = "replies.sqlite"
-CACHE_DIR_ENV = "STALM_CACHE_DIR"
 _KEY_VERSION = 1
 _BUSY_TIMEOUT_S = 30.0
 
@@ -65,9 +65,7 @@ _COLUMNS_V1 = (
 
 def default_cache_path() -> Path:
     """``$STALM_CACHE_DIR/replies.sqlite``, else ``~/.cache/stalm/replies.sqlite``."""
-    directory = os.environ.get(CACHE_DIR_ENV)
-    base = Path(directory).expanduser() if directory else Path.home() / ".cache" / "stalm"
-    return base / CACHE_FILE_NAME
+    return stalm_cache_dir() / CACHE_FILE_NAME
 
 
 def prompt_digest(system: str, user: str) -> str:

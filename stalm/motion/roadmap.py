@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pybullet as p
 
+from stalm.cache_dir import stalm_cache_dir
 from stalm.world import robot as robot_model
 from stalm.world.scene import PENETRATION_TOLERANCE, Sim
 from stalm.world.spec import ProblemSpec
@@ -122,9 +123,7 @@ def static_scene_key(
 
 def cache_dir() -> Path:
     """Where roadmaps (and other derived data) are cached: ``$STALM_CACHE_DIR`` or ~/.cache."""
-    env = os.environ.get("STALM_CACHE_DIR")
-    base = Path(env) if env else Path.home() / ".cache" / "stalm"
-    return base / "roadmaps"
+    return stalm_cache_dir() / "roadmaps"
 
 
 class FootprintChecker:

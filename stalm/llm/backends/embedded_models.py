@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import importlib
 import importlib.metadata
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from stalm.cache_dir import stalm_cache_dir
 from stalm.errors import StalmError
 
 _CHATML_TEMPLATE = (
@@ -111,7 +111,7 @@ def _assembled_gemma(cache_dir: Path | None) -> Path:
             f"the embedded model 'gemma3-270m' needs the package {distribution!r}: "
             f"pip install {distribution}"
         ) from error
-    base = cache_dir or _default_cache_dir()
+    base = cache_dir or stalm_cache_dir()
     target = base / "models" / str(package.MODEL_NAME)
     try:
         return Path(package.assemble(output_path=target))
@@ -119,11 +119,6 @@ def _assembled_gemma(cache_dir: Path | None) -> Path:
         raise StalmError(
             f"cannot assemble the Gemma 3 270M model into {target}: {error}"
         ) from error
-
-
-def _default_cache_dir() -> Path:
-    directory = os.environ.get("STALM_CACHE_DIR")
-    return Path(directory).expanduser() if directory else Path.home() / ".cache" / "stalm"
 
 
 def locate_embedded_model(key: str, cache_dir: Path | None = None) -> Path:
