@@ -80,8 +80,10 @@ def rerun_command(
         Path | None, typer.Option("--json", help="Write the new result as JSON.")
     ] = None,
 ) -> None:
-    """Run a recorded trial again (problem, planner, seed and settings from the record) and
-    check that it gives the recorded plan; exit 1 if it does not."""
+    """Run a recorded trial again and check that it gives the recorded plan.
+
+    The problem, planner, seed and settings all come from the record; exit 1 if the plan
+    differs."""
     from stalm.planners.registry import planner_entry, resolve
     from stalm.planners.settings_io import from_mapping
 

@@ -43,9 +43,10 @@ def view_command(
         str | None, typer.Option(help="Problem (default: the one named in the file).")
     ] = None,
 ) -> None:
-    """Write a self-contained HTML page of a result: the 3D scene animated through the plan,
-    the plan's continuous parameters, and per step the task plans, why each failed, and the
-    search tree."""
+    """Write a self-contained HTML page of a result, the scene animated through the plan.
+
+    The page also shows the plan's continuous parameters and, per real step, the task plans,
+    why each failed, and the search tree."""
     from stalm.viz.view_data import load_result
 
     page = output if output is not None else result_file.with_suffix(".html")
