@@ -275,9 +275,17 @@ class Sim:
             group, mask = (
                 (QUERIED_GROUP, REST_GROUP) if body in bodies else (REST_GROUP, QUERIED_GROUP)
             )
-            for link in self._links[body]:
+            for link in self._links_of(body):
                 p.setCollisionFilterGroupMask(body, link, group, mask, physicsClientId=self.client)
         self._queried = bodies
+
+    def _links_of(self, body: int) -> tuple[int, ...]:
+        """``body``'s link indices; a body made after the scene (none is queried today) is
+        looked up when first met."""
+        if body not in self._links:
+            joints = p.getNumJoints(body, physicsClientId=self.client)
+            self._links[body] = tuple(range(-1, joints))
+        return self._links[body]
 
     def touches(self, bodies: Iterable[int], other: int) -> bool:
         """Does any of ``bodies`` penetrate ``other``? A pairwise query: much cheaper than a
