@@ -39,7 +39,7 @@ import numpy as np
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.mdp import RewardSettings
 from stalm.planners.config import Progress, llm_backend, use_constraint
-from stalm.planners.online import Decision, OnlinePlanner, Sampling, Trial
+from stalm.planners.online import ConfiguredPlanner, Decision, Sampling, Trial
 from stalm.planners.predicate_memo import Timing
 from stalm.planners.proposers import LLMProposer, Proposal, TaskPlanProposer
 from stalm.planners.settings import DEFAULT_SIMS, RunSettings
@@ -273,7 +273,7 @@ class LlmMctsSettings:
 
 
 @dataclass
-class LlmMctsPlanner(OnlinePlanner):
+class LlmMctsPlanner(ConfiguredPlanner):
     """LLM-MCTS run online: search from the current state, execute, repeat."""
 
     name = "llm-mcts"
@@ -281,18 +281,6 @@ class LlmMctsPlanner(OnlinePlanner):
     settings: LlmMctsSettings = field(default_factory=LlmMctsSettings)
     progress: Progress | None = None
     sampling: Sampling = field(default_factory=Sampling)
-
-    @property
-    def rewards(self) -> RewardSettings:
-        return self.settings.rewards
-
-    @property
-    def occlusion(self) -> bool:
-        return self.settings.occlusion_predicates
-
-    @property
-    def reuse_tree(self) -> bool:
-        return self.settings.reuse_tree
 
     def start(self, trial: Trial) -> LlmMctsSteps:
         return LlmMctsSteps(self, trial)

@@ -212,6 +212,38 @@ class OnlinePlanner(ABC):
             domain.close()
 
 
+class MethodSettings(Protocol):
+    """What a method's own settings say about the trial (STaLM's, UCT's, LLM-MCTS's)."""
+
+    @property
+    def rewards(self) -> RewardSettings: ...
+
+    @property
+    def occlusion_predicates(self) -> bool: ...
+
+    @property
+    def reuse_tree(self) -> bool: ...
+
+
+class ConfiguredPlanner(OnlinePlanner):
+    """An online planner whose ``settings`` give R's constants, the occlusion predicates and
+    tree reuse, read here once for every method configured that way."""
+
+    settings: MethodSettings
+
+    @property
+    def rewards(self) -> RewardSettings:
+        return self.settings.rewards
+
+    @property
+    def occlusion(self) -> bool:
+        return self.settings.occlusion_predicates
+
+    @property
+    def reuse_tree(self) -> bool:
+        return self.settings.reuse_tree
+
+
 def run(trial: Trial, decider: Decider) -> str:
     """The online loop: decide, execute, until a stop reason or a terminating decision.
 

@@ -25,7 +25,7 @@ from typing import Any, Literal, cast
 from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
 from stalm.errors import StalmError
-from stalm.planners.online import Decision, OnlinePlanner, Trial
+from stalm.planners.online import ConfiguredPlanner, Decision, Trial
 from stalm.planners.settings import RunSettings
 from stalm.planners.step_log import tree_record, warm_edges
 from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
@@ -113,23 +113,11 @@ def tree_settings(settings: RunSettings, planner: str, *, proposes: bool) -> Sta
     )
 
 
-class TreePlanner(OnlinePlanner):
+class TreePlanner(ConfiguredPlanner):
     """An online planner configured by :class:`StalmSettings` (STaLM, UCT and their
     variants): R's constants, the occlusion predicates and tree reuse come from there."""
 
     settings: StalmSettings
-
-    @property
-    def rewards(self) -> RewardSettings:
-        return self.settings.rewards
-
-    @property
-    def occlusion(self) -> bool:
-        return self.settings.occlusion_predicates
-
-    @property
-    def reuse_tree(self) -> bool:
-        return self.settings.reuse_tree
 
 
 class SearchStep:
