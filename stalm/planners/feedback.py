@@ -18,8 +18,12 @@ context they were learned in. Here each failed step becomes a :class:`FailedStep
   Iterative-Replanning feedback's words (:mod:`stalm.llm.feedback_prompt`);
 * a **rule** for a placement that found no free spot beside movable objects on its region
   (P5's cans after the grill): ``Forbids``/``Needs`` facts rule it out while those objects
-  are on the region, wherever exactly. That is a generalisation from one draw of their
-  poses, so the proposer drops such rules when they leave no plan;
+  are on the region, wherever exactly. That is a generalisation from a few draws of their
+  poses, so it is weighed by evidence (:class:`FeedbackMemory`): each time Concretize finds
+  the placement infeasible again counts for it (``seen``), and a placement Concretize grounds
+  while the rule's objects are on the region refutes it, after which only what was observed
+  (the failure at those exact poses, ``exact``) is kept. When the rules contradict each
+  other and leave no plan, the proposer gives up the least confirmed first;
 * a **support**: the poses of the objects and the door states the failure depended on. A step
   learned in one state holds in any state where every supporting object still sits where it
   sat and no door it saw closed is open (objects added elsewhere and closed doors only add
@@ -31,8 +35,9 @@ are not kept.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 from stalm.domain.actions import DiscreteAction, Open, Pick, Place
 from stalm.domain.outcome import Infeasibility
@@ -68,6 +73,12 @@ class FailedStep:
     movable objects: ruled out symbolically while every one of ``besides`` is on the region,
     wherever exactly (a generalisation: the proposer drops it if it leaves no plan)."""
     besides: tuple[str, ...] = ()
+    exact: FailedStep | None = None
+    """For a rule: the same failure scoped to the exact poses it was observed at (what is
+    left of the rule once a feasible placement refutes the generalisation)."""
+    seen: int = 1
+    """For a rule: how many times Concretize found its placement infeasible (filled in by
+    :meth:`FeedbackMemory.holding_in`); the proposer keeps the best confirmed rules."""
 
     @property
     def action(self) -> DiscreteAction:
@@ -98,21 +109,27 @@ def failed_steps(problem: Problem, plans: Iterable[ConcretePlan]) -> tuple[Faile
         if why is None or why.kind == PRECONDITION:
             continue
         facts, support = _facts_and_support(problem, step.state, step.action, why)
+        exact = FailedStep(
+            plan=plan.task_plan.actions,
+            step=plan.failed_step,
+            failure=why,
+            facts=facts,
+            support=support,
+            open_doors=step.state.open_doors,
+        )
         forbids, besides = _crowded_placement(problem, step.state, step.action, why)
-        if forbids is not None:
-            facts = ()
-            refs = [forbids[2]] if step.state.has_pose(forbids[2]) else []
-            support = tuple((n, step.state.pose(n)) for n in refs)
+        if forbids is None:
+            learned.append(exact)
+            continue
+        refs = [forbids[2]] if step.state.has_pose(forbids[2]) else []
         learned.append(
-            FailedStep(
-                plan=plan.task_plan.actions,
-                step=plan.failed_step,
-                failure=why,
-                facts=facts,
-                support=support,
-                open_doors=step.state.open_doors,
+            replace(
+                exact,
+                facts=(),
+                support=tuple((n, step.state.pose(n)) for n in refs),
                 forbids=forbids,
                 besides=besides,
+                exact=exact,
             )
         )
     return tuple(learned)
@@ -185,6 +202,50 @@ def _crowded_placement(
     return (action.obj, action.direction, action.ref, region), besides
 
 
+@dataclass(frozen=True)
+class Placed:
+    """A placement Concretize grounded: ``action`` was feasible in ``state`` and put the object
+    on ``region``. It is the evidence that refutes a rule forbidding that placement."""
+
+    state: State
+    action: Place
+    region: str
+    beside: frozenset[str]
+    """The other objects resting on ``region`` when it was placed."""
+
+
+def placements_grounded(problem: Problem, plans: Iterable[ConcretePlan]) -> tuple[Placed, ...]:
+    """Every feasible placement among Concretize's ``plans`` (goal-reaching or not)."""
+    found: list[Placed] = []
+    for plan in plans:
+        for step in plan.steps:
+            if not isinstance(step.action, Place) or step.params is None:
+                continue
+            if not step.outcome.feasible:
+                continue
+            spec, state = problem.spec, step.state
+            region = region_of(spec, step.outcome.state, step.action.obj)
+            if region is None:
+                continue
+            beside = frozenset(n for n in state.object_names if region_of(spec, state, n) == region)
+            found.append(Placed(state, step.action, region, beside))
+    return tuple(found)
+
+
+def refutes(placed: Placed, rule: FailedStep) -> bool:
+    """Whether ``placed`` is a counterexample to ``rule``: the placement it forbids (for a rule
+    about a whole region, any placement that put the object there) was grounded while every
+    one of its ``besides`` was on the region, in a state where the rule itself applies."""
+    assert rule.forbids is not None
+    obj, direction, ref, region = rule.forbids
+    action = placed.action
+    if action.obj != obj or placed.region != region:
+        return False
+    if direction != "on" and (action.direction, action.ref) != (direction, ref):
+        return False
+    return rule.holds_in(placed.state) and set(rule.besides) <= placed.beside
+
+
 @dataclass
 class FeedbackMemory:
     """Every failed step learned in one trial; :meth:`holding_in` gives what applies now.
@@ -192,28 +253,80 @@ class FeedbackMemory:
     Steps are never forgotten, only filtered by their support, so a step learned before the
     robot moved an object applies again if the object comes back. Duplicates (the same action
     failing again for the same reason in the same context) are kept once.
+
+    A rule (``FailedStep.forbids``) generalises from the draws that failed, so the memory
+    weighs the evidence about it: how many times it was observed (``seen``: a rule the
+    proposer gave up and Concretize then found true again has earned trust), and whether a
+    placement Concretize grounded refutes it (:func:`refutes`). A refuted rule is never handed
+    to the proposer again; its observations are, each scoped to the poses it was made at
+    (``FailedStep.exact``): what was seen stays true, the generalisation does not.
     """
 
-    steps: list[FailedStep]
+    steps: list[FailedStep] = field(default_factory=list)
+    seen: Counter[tuple[object, ...]] = field(default_factory=Counter)
+    """Observations per rule (by :func:`_key`)."""
+    exact: dict[tuple[object, ...], dict[tuple[object, ...], FailedStep]] = field(
+        default_factory=dict
+    )
+    """Per rule, its observations scoped to their exact poses (distinct ones)."""
+    refuted: set[tuple[object, ...]] = field(default_factory=set)
+    placed: list[Placed] = field(default_factory=list)
+    """Every placement grounded so far: the evidence against rules learned later too."""
 
     @staticmethod
     def empty() -> FeedbackMemory:
-        return FeedbackMemory([])
+        return FeedbackMemory()
 
     def learn(self, new: Sequence[FailedStep]) -> int:
-        """Add ``new`` steps; returns how many were not known yet."""
+        """Add ``new`` steps; returns how many lessons were not known yet (a refuted rule's
+        observation at poses not seen before counts: the proposer gets it)."""
         known = {_key(s) for s in self.steps}
         added = 0
         for step in new:
             key = _key(step)
+            if step.forbids is not None:
+                self.seen[key] += 1
+                scoped = self.exact.setdefault(key, {})
+                if step.exact is not None and _key(step.exact) not in scoped:
+                    scoped[_key(step.exact)] = step.exact
+                    added += key in self.refuted
             if key not in known:
                 known.add(key)
                 self.steps.append(step)
                 added += 1
+                if step.forbids is not None and any(refutes(p, step) for p in self.placed):
+                    self.refuted.add(key)
         return added
 
+    def observe(self, problem: Problem, plans: Iterable[ConcretePlan]) -> int:
+        """Remember the placements Concretize grounded in ``plans``; returns how many rules
+        they refute that were not refuted yet."""
+        new = placements_grounded(problem, plans)
+        self.placed.extend(new)
+        refuted = 0
+        for step in self.steps:
+            key = _key(step)
+            if step.forbids is None or key in self.refuted:
+                continue
+            if any(refutes(placed, step) for placed in new):
+                self.refuted.add(key)
+                refuted += 1
+        return refuted
+
     def holding_in(self, state: State) -> tuple[FailedStep, ...]:
-        return tuple(step for step in self.steps if step.holds_in(state))
+        """The steps that apply in ``state``: each rule with its ``seen`` count, or, once
+        refuted, its exact observations whose poses still hold."""
+        holding: list[FailedStep] = []
+        for step in self.steps:
+            key = _key(step)
+            if step.forbids is None:
+                if step.holds_in(state):
+                    holding.append(step)
+            elif key in self.refuted:
+                holding += [s for s in self.exact.get(key, {}).values() if s.holds_in(state)]
+            elif step.holds_in(state):
+                holding.append(replace(step, seen=self.seen[key]))
+        return tuple(holding)
 
 
 def _key(step: FailedStep) -> tuple[object, ...]:

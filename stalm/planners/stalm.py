@@ -143,7 +143,8 @@ class StalmStep(SearchStep):
             if not settings.feedback or not proposal.plans:
                 break
             learned = self.memory.learn(failed_steps(episode.problem, concrete.plans))
-            self._record_round(done, round_, concrete, learned)
+            refuted = self.memory.observe(episode.problem, concrete.plans)
+            self._record_round(done, round_, concrete, learned, refuted)
             fresh = {plan.task_plan.actions for plan in concrete.plans} - tried
             tried |= fresh
             # ask again while the proposer still comes up with plans not tried in this step
@@ -153,7 +154,7 @@ class StalmStep(SearchStep):
         return plans, None
 
     def _record_round(
-        self, done: int, round_: int, concrete: ConcretizeResult, learned: int
+        self, done: int, round_: int, concrete: ConcretizeResult, learned: int, refuted: int
     ) -> None:
         self.step_records.append(
             {
@@ -162,6 +163,7 @@ class StalmStep(SearchStep):
                 "plans": len(concrete.plans),
                 "failures": [kind for _, kind in concrete.failures],
                 "facts_learned": learned,
+                "rules_refuted": refuted,
             }
         )
 

@@ -180,13 +180,16 @@ class SymbolicProposer:
 
         start = time.perf_counter()
         exact = [step for step in feedback if step.forbids is None]
-        rules = [step for step in feedback if step.forbids is not None]
+        # best confirmed first; among equals, in the order learned (a stable sort)
+        rules = sorted((s for s in feedback if s.forbids is not None), key=lambda s: -s.seen)
         base = set(literals) | {fact for step in exact for fact in step.facts}
         plans, reasons = self._search(problem, vocabulary, base, rules, n, seed, limit, deadline)
         while not plans and rules and not _gave_up(reasons) and not _past(deadline):
             # the generalised rules contradict each other (P5: no can after the grill, and
-            # no grill after a can that was drawn in front): the newest is the likeliest to
-            # have generalised from an unlucky draw, so drop rules newest first
+            # no grill after a can that was drawn in front): give up the least confirmed
+            # rule first (seen fewest times; among equals the newest). A rule given up and
+            # then found true again by Concretize gains a count, so the rules kept are the
+            # ones tested most, not merely the oldest.
             rules = rules[:-1]
             plans, reasons = self._search(
                 problem, vocabulary, base, rules, n, seed, limit, deadline

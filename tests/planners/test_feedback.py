@@ -7,6 +7,8 @@ import numpy as np
 
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility, Outcome
+from stalm.domain.params import Action, PlaceParams
+from stalm.motion.base_motion import BasePath
 from stalm.planners.feedback import FeedbackMemory, failed_steps
 from stalm.planners.symbolic import SymbolicProposer
 from stalm.predicates.literals import GroundLiteral
@@ -108,7 +110,7 @@ def test_no_room_beside_an_object_is_a_rule_about_that_object_being_there(
                 on_table1.add(action.obj)
 
 
-def test_rules_that_leave_no_plan_are_dropped_newest_first(problems, initial_literals) -> None:
+def test_a_rule_that_leaves_no_plan_is_dropped(problems, initial_literals) -> None:
     """A rule against the goal's own placement (generalised from an unlucky draw) would make
     the task unsolvable: the proposer drops it and still proposes plans."""
     problem = problems["P2"]
@@ -124,6 +126,116 @@ def test_rules_that_leave_no_plan_are_dropped_newest_first(problems, initial_lit
     )
     assert proposal.plans
     assert all(p[-1] == Place("salter", "right_of", "bottle1") for p in proposal.plans)
+
+
+# P5's counter1 (walls at the back and sides): poses at its front and in its back pocket
+P5_FRONT = ObjectPose.make(-4.49, 3.45, 1.03, 3.141593)
+P5_BACK = ObjectPose.make(-4.74, 3.52, 1.03, 3.141593)
+P5_SIDE = ObjectPose.make(-4.46, 3.64, 1.03, 3.141593)
+
+
+def _crowded(problem, obj: str, others: dict[str, ObjectPose]):
+    """The rule learned when placing ``obj`` on P5's counter1 found no spot beside ``others``
+    (resting there at the given poses)."""
+    state = problem.initial_state.with_changes(poses=others)
+    blockers = (*sorted(others), "counter1_wall_left")
+    why = Infeasibility("no_placement", f"placements of '{obj}' on 'counter1' collide", blockers)
+    plan = (Pick(obj), Place(obj, "on", "counter1"))
+    (learned,) = failed_steps(problem, [_failed_plan(state, plan, 1, why)])
+    assert learned.forbids == (obj, "on", "counter1", "counter1")
+    assert learned.besides == tuple(sorted(others))
+    return learned
+
+
+def _grounded(state, action: Place, placement: ObjectPose) -> ConcretePlan:
+    """A one-step plan whose placement Concretize grounded (feasible) in ``state``."""
+    params = Action(action, PlaceParams(BasePath(()), placement, (), ()))
+    after = state.with_changes(poses={action.obj: placement}, held=None)
+    step = ConcreteStep(state, action, params, Outcome(after, 0.0, True))
+    return ConcretePlan(0, TaskPlan((action,)), (step,), False, "partially_achieved_goal")
+
+
+def _last_placed_on(plan, region: str) -> list[str]:
+    """The objects a task plan leaves on ``region``, in the order they were last put there."""
+    order: list[str] = []
+    for action in plan:
+        if isinstance(action, Place) and action.direction == "on" and action.ref == region:
+            order = [o for o in order if o != action.obj] + [action.obj]
+    return order
+
+
+def test_contradicting_rules_keep_the_best_confirmed(problems, initial_literals) -> None:
+    """P5: four rules about counter1 learned from single draws contradict each other (no can
+    after the grill, no grill after a can): the proposer must give some up. The one found
+    true again after it was first learned (no sprite after the grill) is kept over rules seen
+    once, so the plans put the grill last, not the sprite after the grill (which the 'newest
+    first' order kept proposing, every time failing the same way)."""
+    problem = problems["P5"]
+    coke_after_grill = _crowded(problem, "coke", {"beef_grill": P5_FRONT})
+    grill_after_sprite = _crowded(problem, "beef_grill", {"sprite": P5_FRONT})
+    grill_after_coke = _crowded(problem, "beef_grill", {"coke": P5_FRONT})
+    sprite_after_grill = _crowded(problem, "sprite", {"beef_grill": P5_FRONT})
+    memory = FeedbackMemory.empty()
+    learned = [coke_after_grill, grill_after_sprite, grill_after_coke, sprite_after_grill]
+    assert memory.learn(learned) == 4
+    # proposed again once it was given up, and Concretize found it true again
+    assert memory.learn([_crowded(problem, "sprite", {"beef_grill": P5_SIDE})]) == 0
+    holding = memory.holding_in(problem.initial_state)
+    assert [step.seen for step in holding] == [1, 1, 1, 2]
+
+    proposal = SymbolicProposer().propose(
+        problem, problem.initial_state, initial_literals("P5"), 3, seed=0, feedback=holding
+    )
+    assert proposal.plans
+    for plan in proposal.plans:
+        assert _last_placed_on(plan, "counter1")[-1] == "beef_grill", plan
+
+
+def test_a_grounded_placement_refutes_a_rule_and_leaves_what_was_observed(problems) -> None:
+    """'No grill on counter1 while the coke is there' came from a coke drawn at the front; a
+    grill placed there with the coke in the back pocket refutes it. What is left is the
+    failure at the poses it was seen at, which lapses once the coke moves."""
+    problem = problems["P5"]
+    rule = _crowded(problem, "beef_grill", {"coke": P5_FRONT})
+    memory = FeedbackMemory.empty()
+    memory.learn([rule])
+    at_front = problem.initial_state.with_changes(poses={"coke": P5_FRONT})
+    assert memory.holding_in(at_front) == (rule,)
+
+    in_back = problem.initial_state.with_changes(poses={"coke": P5_BACK})
+    place = Place("beef_grill", "on", "counter1")
+    # a placement elsewhere, or with the coke off the counter, refutes nothing
+    on_counter3 = ObjectPose.make(4.6, 3.2, 1.03, 0.0)
+    elsewhere = _grounded(in_back, Place("beef_grill", "on", "counter3"), on_counter3)
+    coke_away = _grounded(problem.initial_state, place, P5_FRONT)
+    assert memory.observe(problem, [elsewhere, coke_away]) == 0
+    assert memory.observe(problem, [_grounded(in_back, place, P5_FRONT)]) == 1
+
+    (observed,) = memory.holding_in(at_front)
+    assert observed.forbids is None
+    assert observed.facts == (
+        GroundLiteral("PlaceFailed", ("beef_grill", "on", "counter1", "counter1")),
+    )
+    assert memory.holding_in(in_back) == ()  # the coke moved: the observation lapses
+    # seen again at another pose, the refuted rule stays refuted: that pose is kept instead
+    assert memory.learn([_crowded(problem, "beef_grill", {"coke": P5_SIDE})]) == 1
+    at_side = problem.initial_state.with_changes(poses={"coke": P5_SIDE})
+    assert [step.forbids for step in memory.holding_in(at_side)] == [None]
+
+
+def test_a_rule_learned_after_its_counterexample_is_refuted_at_once(problems) -> None:
+    problem = problems["P5"]
+    memory = FeedbackMemory.empty()
+    in_back = problem.initial_state.with_changes(poses={"coke": P5_BACK})
+    assert (
+        memory.observe(
+            problem, [_grounded(in_back, Place("beef_grill", "on", "counter1"), P5_FRONT)]
+        )
+        == 0
+    )
+    memory.learn([_crowded(problem, "beef_grill", {"coke": P5_FRONT})])
+    at_front = problem.initial_state.with_changes(poses={"coke": P5_FRONT})
+    assert [step.forbids for step in memory.holding_in(at_front)] == [None]
 
 
 def test_a_blocked_pick_becomes_an_occlusion_cleared_by_moving_the_blocker(problems) -> None:
