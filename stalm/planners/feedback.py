@@ -24,6 +24,13 @@ context they were learned in. Here each failed step becomes a :class:`FailedStep
   while the rule's objects are on the region refutes it, after which only what was observed
   (the failure at those exact poses, ``exact``) is kept. When the rules contradict each
   other and leave no plan, the proposer gives up the least confirmed first;
+* a **rule** for a pick that collided with movable objects on the region its object rests on
+  (P5's coke behind the grill): ``ForbidsPick``/``Needs`` facts rule it out while those
+  objects are on that region, wherever exactly. The PDDL clears an occlusion by picking the
+  occluder and predicts none from a placement, so without it the proposer's cheapest way
+  past the occlusion is to put the occluder back down on the same region, and the exact
+  lesson (the occlusion at the occluder's new pose) never applies where it plans from. It is
+  weighed by evidence like the placement rule;
 * a **support**: the poses of the objects and the door states the failure depended on. A step
   learned in one state holds in any state where every supporting object still sits where it
   sat and no door it saw closed is open (objects added elsewhere and closed doors only add
@@ -73,16 +80,25 @@ class FailedStep:
     movable objects: ruled out symbolically while every one of ``besides`` is on the region,
     wherever exactly (a generalisation: the proposer drops it if it leaves no plan)."""
     besides: tuple[str, ...] = ()
+    forbids_pick: tuple[str, str] | None = None
+    """A pick (object, region) that collided with movable objects resting on the region the
+    object rests on: ruled out while the object and every one of ``besides`` are on that
+    region, wherever exactly ``besides`` are (a generalisation, weighed like ``forbids``)."""
     exact: FailedStep | None = None
     """For a rule: the same failure scoped to the exact poses it was observed at (what is
     left of the rule once a feasible placement refutes the generalisation)."""
     seen: int = 1
-    """For a rule: how many times Concretize found its placement infeasible (filled in by
+    """For a rule: how many times Concretize found its action infeasible (filled in by
     :meth:`FeedbackMemory.holding_in`); the proposer keeps the best confirmed rules."""
 
     @property
     def action(self) -> DiscreteAction:
         return self.plan[self.step]
+
+    @property
+    def is_rule(self) -> bool:
+        """A generalisation (``forbids`` or ``forbids_pick``), not an exact observation."""
+        return self.forbids is not None or self.forbids_pick is not None
 
     def holds_in(self, state: State) -> bool:
         """True while every supporting object is where it was and no door that was closed has
@@ -118,20 +134,19 @@ def failed_steps(problem: Problem, plans: Iterable[ConcretePlan]) -> tuple[Faile
             open_doors=step.state.open_doors,
         )
         forbids, besides = _crowded_placement(problem, step.state, step.action, why)
-        if forbids is None:
+        forbids_pick, pick_besides = _crowded_pick(problem, step.state, step.action, why)
+        if forbids is not None:
+            refs = [forbids[2]] if step.state.has_pose(forbids[2]) else []
+            support = tuple((n, step.state.pose(n)) for n in refs)
+            rule = replace(exact, forbids=forbids, besides=besides, support=support)
+        elif forbids_pick is not None:
+            # while the object itself stays where it was, wherever the others are
+            support = ((forbids_pick[0], step.state.pose(forbids_pick[0])),)
+            rule = replace(exact, forbids_pick=forbids_pick, besides=pick_besides, support=support)
+        else:
             learned.append(exact)
             continue
-        refs = [forbids[2]] if step.state.has_pose(forbids[2]) else []
-        learned.append(
-            replace(
-                exact,
-                facts=(),
-                support=tuple((n, step.state.pose(n)) for n in refs),
-                forbids=forbids,
-                besides=besides,
-                exact=exact,
-            )
-        )
+        learned.append(replace(rule, facts=(), exact=exact))
     return tuple(learned)
 
 
@@ -202,48 +217,82 @@ def _crowded_placement(
     return (action.obj, action.direction, action.ref, region), besides
 
 
+def _crowded_pick(
+    problem: Problem, state: State, action: DiscreteAction, why: Infeasibility
+) -> tuple[tuple[str, str] | None, tuple[str, ...]]:
+    """A pick that collided with movable objects resting on the object's own region: the
+    symbolic rule 'not while those objects are there' (P5's coke behind the grill)."""
+    if not isinstance(action, Pick):
+        return None, ()
+    spec = problem.spec
+    region = region_of(spec, state, action.obj)
+    if region is None:
+        return None, ()
+    besides = tuple(
+        sorted(
+            b
+            for b in why.blockers
+            if b != action.obj and state.has_pose(b) and region_of(spec, state, b) == region
+        )
+    )
+    if not besides:
+        return None, ()
+    return (action.obj, region), besides
+
+
 @dataclass(frozen=True)
-class Placed:
-    """A placement Concretize grounded: ``action`` was feasible in ``state`` and put the object
-    on ``region``. It is the evidence that refutes a rule forbidding that placement."""
+class Grounded:
+    """A pick or placement Concretize grounded: ``action`` was feasible in ``state``; its
+    object was on ``region`` (a pick) or came to rest there (a placement). It is the evidence
+    that refutes a rule forbidding that action."""
 
     state: State
-    action: Place
+    action: Pick | Place
     region: str
     beside: frozenset[str]
-    """The other objects resting on ``region`` when it was placed."""
+    """The other objects resting on ``region`` in ``state``."""
 
 
-def placements_grounded(problem: Problem, plans: Iterable[ConcretePlan]) -> tuple[Placed, ...]:
-    """Every feasible placement among Concretize's ``plans`` (goal-reaching or not)."""
-    found: list[Placed] = []
+def grounded_steps(problem: Problem, plans: Iterable[ConcretePlan]) -> tuple[Grounded, ...]:
+    """Every feasible pick and placement among Concretize's ``plans``."""
+    spec = problem.spec
+    found: list[Grounded] = []
     for plan in plans:
         for step in plan.steps:
-            if not isinstance(step.action, Place) or step.params is None:
+            action = step.action
+            if not isinstance(action, Pick | Place) or step.params is None:
                 continue
             if not step.outcome.feasible:
                 continue
-            spec, state = problem.spec, step.state
-            region = region_of(spec, step.outcome.state, step.action.obj)
+            state = step.state
+            after = step.outcome.state
+            region = region_of(spec, state if isinstance(action, Pick) else after, action.obj)
             if region is None:
                 continue
-            beside = frozenset(n for n in state.object_names if region_of(spec, state, n) == region)
-            found.append(Placed(state, step.action, region, beside))
+            beside = frozenset(
+                n
+                for n in state.object_names
+                if n != action.obj and region_of(spec, state, n) == region
+            )
+            found.append(Grounded(state, action, region, beside))
     return tuple(found)
 
 
-def refutes(placed: Placed, rule: FailedStep) -> bool:
-    """Whether ``placed`` is a counterexample to ``rule``: the placement it forbids (for a rule
-    about a whole region, any placement that put the object there) was grounded while every
-    one of its ``besides`` was on the region, in a state where the rule itself applies."""
+def refutes(grounded: Grounded, rule: FailedStep) -> bool:
+    """Whether ``grounded`` is a counterexample to ``rule``: the action it forbids (for a
+    placement rule about a whole region, any placement that put the object there) was
+    grounded while every one of its ``besides`` was on the region, in a state where the rule
+    itself applies."""
+    action = grounded.action
+    if not (rule.holds_in(grounded.state) and set(rule.besides) <= grounded.beside):
+        return False
+    if rule.forbids_pick is not None:
+        return isinstance(action, Pick) and (action.obj, grounded.region) == rule.forbids_pick
     assert rule.forbids is not None
     obj, direction, ref, region = rule.forbids
-    action = placed.action
-    if action.obj != obj or placed.region != region:
+    if not isinstance(action, Place) or action.obj != obj or grounded.region != region:
         return False
-    if direction != "on" and (action.direction, action.ref) != (direction, ref):
-        return False
-    return rule.holds_in(placed.state) and set(rule.besides) <= placed.beside
+    return direction == "on" or (action.direction, action.ref) == (direction, ref)
 
 
 @dataclass
@@ -254,12 +303,12 @@ class FeedbackMemory:
     robot moved an object applies again if the object comes back. Duplicates (the same action
     failing again for the same reason in the same context) are kept once.
 
-    A rule (``FailedStep.forbids``) generalises from the draws that failed, so the memory
+    A rule (``FailedStep.is_rule``) generalises from the draws that failed, so the memory
     weighs the evidence about it: how many times it was observed (``seen``: a rule the
     proposer gave up and Concretize then found true again has earned trust), and whether a
-    placement Concretize grounded refutes it (:func:`refutes`). A refuted rule is never handed
-    to the proposer again; its observations are, each scoped to the poses it was made at
-    (``FailedStep.exact``): what was seen stays true, the generalisation does not.
+    pick or placement Concretize grounded refutes it (:func:`refutes`). A refuted rule is
+    never handed to the proposer again; its observations are, each scoped to the poses it was
+    made at (``FailedStep.exact``): what was seen stays true, the generalisation does not.
     """
 
     steps: list[FailedStep] = field(default_factory=list)
@@ -270,8 +319,8 @@ class FeedbackMemory:
     )
     """Per rule, its observations scoped to their exact poses (distinct ones)."""
     refuted: set[tuple[object, ...]] = field(default_factory=set)
-    placed: list[Placed] = field(default_factory=list)
-    """Every placement grounded so far: the evidence against rules learned later too."""
+    grounded: list[Grounded] = field(default_factory=list)
+    """Every pick and placement grounded so far: the evidence against rules learned later."""
 
     @staticmethod
     def empty() -> FeedbackMemory:
@@ -284,7 +333,7 @@ class FeedbackMemory:
         added = 0
         for step in new:
             key = _key(step)
-            if step.forbids is not None:
+            if step.is_rule:
                 self.seen[key] += 1
                 scoped = self.exact.setdefault(key, {})
                 if step.exact is not None and _key(step.exact) not in scoped:
@@ -294,21 +343,21 @@ class FeedbackMemory:
                 known.add(key)
                 self.steps.append(step)
                 added += 1
-                if step.forbids is not None and any(refutes(p, step) for p in self.placed):
+                if step.is_rule and any(refutes(g, step) for g in self.grounded):
                     self.refuted.add(key)
         return added
 
     def observe(self, problem: Problem, plans: Iterable[ConcretePlan]) -> int:
-        """Remember the placements Concretize grounded in ``plans``; returns how many rules
-        they refute that were not refuted yet."""
-        new = placements_grounded(problem, plans)
-        self.placed.extend(new)
+        """Remember the picks and placements Concretize grounded in ``plans``; returns how many
+        rules they refute that were not refuted yet."""
+        new = grounded_steps(problem, plans)
+        self.grounded.extend(new)
         refuted = 0
         for step in self.steps:
             key = _key(step)
-            if step.forbids is None or key in self.refuted:
+            if not step.is_rule or key in self.refuted:
                 continue
-            if any(refutes(placed, step) for placed in new):
+            if any(refutes(grounded, step) for grounded in new):
                 self.refuted.add(key)
                 refuted += 1
         return refuted
@@ -319,7 +368,7 @@ class FeedbackMemory:
         holding: list[FailedStep] = []
         for step in self.steps:
             key = _key(step)
-            if step.forbids is None:
+            if not step.is_rule:
                 if step.holds_in(state):
                     holding.append(step)
             elif key in self.refuted:
@@ -330,6 +379,6 @@ class FeedbackMemory:
 
 
 def _key(step: FailedStep) -> tuple[object, ...]:
-    if step.forbids is not None:  # the symbolic rule, whatever the exact poses were
-        return (step.forbids, step.besides, step.support)
+    if step.is_rule:  # the symbolic rule, whatever the exact poses were
+        return (step.forbids, step.forbids_pick, step.besides, step.support)
     return (step.action, step.facts, step.support, step.open_doors)

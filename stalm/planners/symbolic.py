@@ -179,9 +179,9 @@ class SymbolicProposer:
             return max(0.5, min(self.time_limit_s, deadline - time.monotonic()))
 
         start = time.perf_counter()
-        exact = [step for step in feedback if step.forbids is None]
+        exact = [step for step in feedback if not step.is_rule]
         # best confirmed first; among equals, in the order learned (a stable sort)
-        rules = sorted((s for s in feedback if s.forbids is not None), key=lambda s: -s.seen)
+        rules = sorted((s for s in feedback if s.is_rule), key=lambda s: -s.seen)
         base = set(literals) | {fact for step in exact for fact in step.facts}
         plans, reasons = self._search(problem, vocabulary, base, rules, n, seed, limit, deadline)
         while not plans and rules and not _gave_up(reasons) and not _past(deadline):
@@ -262,12 +262,15 @@ class SymbolicProposer:
 
 
 def _rule_literals(rules: Sequence[FailedStep]) -> list[GroundLiteral]:
-    """``Forbids``/``Needs`` facts for the placement rules, one failure object each."""
+    """``Forbids``/``ForbidsPick`` and ``Needs`` facts for the rules, one failure object each."""
     literals: list[GroundLiteral] = []
     for index, step in enumerate(rules):
-        assert step.forbids is not None
         name = failure_name(index)
-        literals.append(GroundLiteral("Forbids", (name, *step.forbids)))
+        if step.forbids is not None:
+            literals.append(GroundLiteral("Forbids", (name, *step.forbids)))
+        else:
+            assert step.forbids_pick is not None
+            literals.append(GroundLiteral("ForbidsPick", (name, *step.forbids_pick)))
         literals += [GroundLiteral("Needs", (name, other)) for other in step.besides]
     return literals
 

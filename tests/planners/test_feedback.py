@@ -7,13 +7,13 @@ import numpy as np
 
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility, Outcome
-from stalm.domain.params import Action, PlaceParams
+from stalm.domain.params import Action, PickParams, PlaceParams
 from stalm.motion.base_motion import BasePath
 from stalm.planners.feedback import FeedbackMemory, failed_steps
 from stalm.planners.symbolic import SymbolicProposer
 from stalm.predicates.literals import GroundLiteral
 from stalm.search.concretize import ConcretePlan, ConcreteStep, TaskPlan
-from stalm.world.state import ObjectPose
+from stalm.world.state import Grasp, ObjectPose
 
 
 def _failed_plan(state, actions, step, why) -> ConcretePlan:
@@ -238,17 +238,83 @@ def test_a_rule_learned_after_its_counterexample_is_refuted_at_once(problems) ->
     assert [step.forbids for step in memory.holding_in(at_front)] == [None]
 
 
-def test_a_blocked_pick_becomes_an_occlusion_cleared_by_moving_the_blocker(problems) -> None:
+def test_a_blocked_pick_is_a_rule_about_the_blockers_on_its_region(problems) -> None:
+    """salter's pick collided with bottle2, which rests on salter's counter: while bottle2 is
+    on counter2, wherever exactly, salter is not picked (putting bottle2 back down there is no
+    way past it). What was observed is the occlusion at bottle2's pose, cleared by moving it."""
     problem = problems["P2"]
     state = problem.initial_state
     why = Infeasibility("arm_collision", "reaching for 'salter' collides", ("bottle2", "counter2"))
-    learned = failed_steps(problem, [_failed_plan(state, (Pick("salter"),), 0, why)])
+    (learned,) = failed_steps(problem, [_failed_plan(state, (Pick("salter"),), 0, why)])
     # the counter is static scenery, not something a plan can move: only bottle2 is named
-    assert learned[0].facts == (GroundLiteral("PickOccludedBy", ("salter", "bottle2")),)
-    assert {obj for obj, _ in learned[0].support} == {"salter", "bottle2"}
-    assert learned[0].holds_in(state)
-    moved = state.with_changes(poses={"bottle2": ObjectPose.make(9.0, 9.0, 1.0, 0.0)})
-    assert not learned[0].holds_in(moved)
+    assert learned.forbids_pick == ("salter", "counter2")
+    assert learned.besides == ("bottle2",)
+    assert learned.exact is not None
+    assert learned.exact.facts == (GroundLiteral("PickOccludedBy", ("salter", "bottle2")),)
+    assert {obj for obj, _ in learned.exact.support} == {"salter", "bottle2"}
+    assert learned.holds_in(state) and learned.exact.holds_in(state)
+    put_back = state.with_changes(poses={"bottle2": ObjectPose.make(-4.7, -1.3, 1.03, 0.0)})
+    assert learned.holds_in(put_back)  # the rule: bottle2 anywhere on counter2
+    assert not learned.exact.holds_in(put_back)  # the observation: bottle2 where it was
+    salter_moved = state.with_changes(poses={"salter": ObjectPose.make(9.0, 9.0, 1.0, 0.0)})
+    assert not learned.holds_in(salter_moved)
+
+
+def _grill_region_at_first_pick_of(plan, obj: str, start: str) -> str | None:
+    """Where a P5 task plan has put the grill (``start`` at the start) when it first picks
+    ``obj``; None if it never picks it."""
+    where = start
+    for action in plan:
+        if isinstance(action, Pick) and action.obj == obj:
+            return where
+        if isinstance(action, Pick) and action.obj == "beef_grill":
+            where = "hand"
+        elif isinstance(action, Place) and action.obj == "beef_grill":
+            where = action.ref if action.direction == "on" else f"beside {action.ref}"
+    return None
+
+
+def test_a_pick_rule_keeps_the_occluder_off_the_region_and_a_grounded_pick_refutes_it(
+    problems, initial_literals
+) -> None:
+    """P5: the coke's pick collided with the grill on counter2. Holding the grill (and with the
+    rule that no can goes on counter1 after it), the proposer put the grill back down on
+    counter2 before picking the coke in some plans, a pick Concretize then finds blocked
+    again; with the rule it takes the grill elsewhere. A pick of the coke grounded with the
+    grill on counter2 (drawn aside) refutes the rule."""
+    problem = problems["P5"]
+    state = problem.initial_state
+    why = Infeasibility("arm_collision", "reaching for 'coke' collides", ("beef_grill",))
+    (rule,) = failed_steps(problem, [_failed_plan(state, (Pick("coke"),), 0, why)])
+    assert (rule.forbids_pick, rule.besides) == (("coke", "counter2"), ("beef_grill",))
+    memory = FeedbackMemory.empty()
+    memory.learn([rule, _crowded(problem, "coke", {"beef_grill": P5_FRONT})])
+    grasp = Grasp.make("beef_grill", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    holding = state.with_changes(remove="beef_grill", held=grasp)
+    literals = {
+        literal
+        for literal in initial_literals("P5")
+        if "beef_grill" not in literal.args and literal.name != "HandAvailable"
+    } | {GroundLiteral("RobotHolding", ("beef_grill",))}
+    proposal = SymbolicProposer().propose(
+        problem, holding, literals, 5, seed=0, feedback=memory.holding_in(holding)
+    )
+    assert proposal.plans
+    for plan in proposal.plans:
+        assert _grill_region_at_first_pick_of(plan, "coke", "hand") not in ("counter2", None)
+
+    aside = state.with_changes(poses={"beef_grill": ObjectPose.make(-4.6, -1.25, 1.03, 3.14)})
+    pick = Pick("coke")
+    grasp = Grasp.make("coke", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    params = Action(pick, PickParams(BasePath(()), 0.0, 0.0, grasp, (), ()))
+    after = aside.with_changes(remove="coke", held=grasp)
+    step = ConcreteStep(aside, pick, params, Outcome(after, 0.0, True))
+    grounded = ConcretePlan(0, TaskPlan((pick,)), (step,), False, "partially_achieved_goal")
+    assert memory.observe(problem, [grounded]) == 1
+    holding_now = memory.holding_in(state)
+    assert all(step.forbids_pick is None for step in holding_now)
+    occlusion = GroundLiteral("PickOccludedBy", ("coke", "beef_grill"))
+    assert [step.facts for step in holding_now if step.forbids is None] == [(occlusion,)]
 
 
 def test_precondition_failures_teach_nothing(problems) -> None:
