@@ -19,8 +19,9 @@ context they were learned in. Here each failed step becomes a :class:`FailedStep
 * a **rule** for a placement that found no free spot beside movable objects on its region
   (P5's cans after the grill): ``Forbids``/``Needs`` facts rule it out while those objects
   are on the region, wherever exactly. That is a generalisation from a few draws of their
-  poses, so it is weighed by evidence (:class:`FeedbackMemory`): each time Concretize finds
-  the placement infeasible again counts for it (``seen``), and a placement Concretize grounds
+  poses, so it is weighed by evidence (:class:`FeedbackMemory`): each configuration of
+  those objects Concretize finds the placement infeasible in counts for it (``seen``), and
+  a placement Concretize grounds
   while the rule's objects are on the region refutes it, after which only what was observed
   (the failure at those exact poses, ``exact``) is kept. When the rules contradict each
   other and leave no plan, the proposer gives up the least confirmed first;
@@ -42,7 +43,6 @@ are not kept.
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -88,8 +88,9 @@ class FailedStep:
     """For a rule: the same failure scoped to the exact poses it was observed at (what is
     left of the rule once a feasible placement refutes the generalisation)."""
     seen: int = 1
-    """For a rule: how many times Concretize found its action infeasible (filled in by
-    :meth:`FeedbackMemory.holding_in`); the proposer keeps the best confirmed rules."""
+    """For a rule: in how many distinct configurations (poses of the objects it was about)
+    Concretize found its action infeasible, filled in by :meth:`FeedbackMemory.holding_in`;
+    the proposer keeps the best confirmed rules."""
 
     @property
     def action(self) -> DiscreteAction:
@@ -304,20 +305,22 @@ class FeedbackMemory:
     failing again for the same reason in the same context) are kept once.
 
     A rule (``FailedStep.is_rule``) generalises from the draws that failed, so the memory
-    weighs the evidence about it: how many times it was observed (``seen``: a rule the
-    proposer gave up and Concretize then found true again has earned trust), and whether a
+    weighs the evidence about it: in how many distinct configurations it was observed
+    (``seen``: a rule the proposer gave up and Concretize then found true again, with the
+    objects elsewhere, has earned trust), and whether a
     pick or placement Concretize grounded refutes it (:func:`refutes`). A refuted rule is
     never handed to the proposer again; its observations are, each scoped to the poses it was
     made at (``FailedStep.exact``): what was seen stays true, the generalisation does not.
     """
 
     steps: list[FailedStep] = field(default_factory=list)
-    seen: Counter[tuple[object, ...]] = field(default_factory=Counter)
-    """Observations per rule (by :func:`_key`)."""
     exact: dict[tuple[object, ...], dict[tuple[object, ...], FailedStep]] = field(
         default_factory=dict
     )
-    """Per rule, its observations scoped to their exact poses (distinct ones)."""
+    """Per rule (by :func:`_key`), its observations scoped to their exact poses, each
+    distinct configuration once: how many there are is the rule's ``seen``. The same
+    failure at the same poses again (an executed object that stays put) says nothing new
+    about other poses, so it does not count twice."""
     refuted: set[tuple[object, ...]] = field(default_factory=set)
     grounded: list[Grounded] = field(default_factory=list)
     """Every pick and placement grounded so far: the evidence against rules learned later."""
@@ -334,7 +337,6 @@ class FeedbackMemory:
         for step in new:
             key = _key(step)
             if step.is_rule:
-                self.seen[key] += 1
                 scoped = self.exact.setdefault(key, {})
                 if step.exact is not None and _key(step.exact) not in scoped:
                     scoped[_key(step.exact)] = step.exact
@@ -374,7 +376,7 @@ class FeedbackMemory:
             elif key in self.refuted:
                 holding += [s for s in self.exact.get(key, {}).values() if s.holds_in(state)]
             elif step.holds_in(state):
-                holding.append(replace(step, seen=self.seen[key]))
+                holding.append(replace(step, seen=max(1, len(self.exact.get(key, {})))))
         return tuple(holding)
 
 

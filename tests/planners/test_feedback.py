@@ -178,7 +178,10 @@ def test_contradicting_rules_keep_the_best_confirmed(problems, initial_literals)
     memory = FeedbackMemory.empty()
     learned = [coke_after_grill, grill_after_sprite, grill_after_coke, sprite_after_grill]
     assert memory.learn(learned) == 4
-    # proposed again once it was given up, and Concretize found it true again
+    # the same failure at the same poses is no new evidence about other poses
+    assert memory.learn([sprite_after_grill]) == 0
+    assert [step.seen for step in memory.holding_in(problem.initial_state)] == [1, 1, 1, 1]
+    # proposed again once it was given up, and Concretize found it true again elsewhere
     assert memory.learn([_crowded(problem, "sprite", {"beef_grill": P5_SIDE})]) == 0
     holding = memory.holding_in(problem.initial_state)
     assert [step.seen for step in holding] == [1, 1, 1, 2]
