@@ -43,7 +43,7 @@ are not kept.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 
 from stalm.domain.actions import DiscreteAction, Open, Pick, Place
@@ -52,6 +52,7 @@ from stalm.llm.feedback_prompt import FailedPlan
 from stalm.predicates.literals import GroundLiteral
 from stalm.search.concretize import ConcretePlan
 from stalm.search.transition import PRECONDITION
+from stalm.search.tree import SearchTree
 from stalm.world.problem import Problem
 from stalm.world.relations import region_of
 from stalm.world.state import ObjectPose, State
@@ -254,29 +255,43 @@ class Grounded:
     """The other objects resting on ``region`` in ``state``."""
 
 
-def grounded_steps(problem: Problem, plans: Iterable[ConcretePlan]) -> tuple[Grounded, ...]:
-    """Every feasible pick and placement among Concretize's ``plans``."""
+def _grounded(
+    problem: Problem, state: State, action: DiscreteAction, after: State
+) -> Grounded | None:
+    """The feasible transition ``state`` → ``after`` by ``action`` as evidence, if it is a
+    pick or a placement on (from) a region."""
+    if not isinstance(action, Pick | Place):
+        return None
     spec = problem.spec
-    found: list[Grounded] = []
+    region = region_of(spec, state if isinstance(action, Pick) else after, action.obj)
+    if region is None:
+        return None
+    beside = frozenset(
+        n for n in state.object_names if n != action.obj and region_of(spec, state, n) == region
+    )
+    return Grounded(state, action, region, beside)
+
+
+def grounded_steps(problem: Problem, plans: Iterable[ConcretePlan]) -> Iterator[Grounded]:
+    """Every feasible pick and placement among Concretize's ``plans``."""
     for plan in plans:
         for step in plan.steps:
-            action = step.action
-            if not isinstance(action, Pick | Place) or step.params is None:
-                continue
-            if not step.outcome.feasible:
-                continue
-            state = step.state
-            after = step.outcome.state
-            region = region_of(spec, state if isinstance(action, Pick) else after, action.obj)
-            if region is None:
-                continue
-            beside = frozenset(
-                n
-                for n in state.object_names
-                if n != action.obj and region_of(spec, state, n) == region
-            )
-            found.append(Grounded(state, action, region, beside))
-    return tuple(found)
+            if step.params is not None and step.outcome.feasible:
+                found = _grounded(problem, step.state, step.action, step.outcome.state)
+                if found is not None:
+                    yield found
+
+
+def grounded_in_tree(problem: Problem, tree: SearchTree) -> Iterator[Grounded]:
+    """Every feasible pick and placement the search tree holds (its κ children whose
+    transition was feasible): the simulations' evidence, and the executed actions'."""
+    for state in tree.states():
+        for cont in tree.node(state).children:
+            for kappa in cont.children:
+                if kappa.outcome.feasible:
+                    found = _grounded(problem, state, cont.action, kappa.outcome.state)
+                    if found is not None:
+                        yield found
 
 
 def refutes(grounded: Grounded, rule: FailedStep) -> bool:
@@ -322,8 +337,9 @@ class FeedbackMemory:
     failure at the same poses again (an executed object that stays put) says nothing new
     about other poses, so it does not count twice."""
     refuted: set[tuple[object, ...]] = field(default_factory=set)
-    grounded: list[Grounded] = field(default_factory=list)
-    """Every pick and placement grounded so far: the evidence against rules learned later."""
+    grounded: dict[tuple[State, DiscreteAction], Grounded] = field(default_factory=dict)
+    """Every pick and placement grounded so far, by state and action: the evidence against
+    rules learned later too."""
 
     @staticmethod
     def empty() -> FeedbackMemory:
@@ -345,21 +361,25 @@ class FeedbackMemory:
                 known.add(key)
                 self.steps.append(step)
                 added += 1
-                if step.is_rule and any(refutes(g, step) for g in self.grounded):
+                if step.is_rule and any(refutes(g, step) for g in self.grounded.values()):
                     self.refuted.add(key)
         return added
 
-    def observe(self, problem: Problem, plans: Iterable[ConcretePlan]) -> int:
-        """Remember the picks and placements Concretize grounded in ``plans``; returns how many
-        rules they refute that were not refuted yet."""
-        new = grounded_steps(problem, plans)
-        self.grounded.extend(new)
+    def observe(self, grounded: Iterable[Grounded]) -> int:
+        """Remember picks and placements found feasible (:func:`grounded_steps` of
+        Concretize's plans, :func:`grounded_in_tree`); returns how many rules they refute that
+        were not refuted yet."""
+        new = []
+        for found in grounded:
+            if (found.state, found.action) not in self.grounded:
+                self.grounded[(found.state, found.action)] = found
+                new.append(found)
         refuted = 0
         for step in self.steps:
             key = _key(step)
             if not step.is_rule or key in self.refuted:
                 continue
-            if any(refutes(grounded, step) for grounded in new):
+            if any(refutes(found, step) for found in new):
                 self.refuted.add(key)
                 refuted += 1
         return refuted

@@ -25,7 +25,12 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
 from stalm.planners.config import Progress
-from stalm.planners.feedback import FeedbackMemory, failed_steps
+from stalm.planners.feedback import (
+    FeedbackMemory,
+    failed_steps,
+    grounded_in_tree,
+    grounded_steps,
+)
 from stalm.planners.online import Trial
 from stalm.planners.proposers import FeedbackProposer, TaskPlanProposer, takes_feedback
 from stalm.planners.step_log import proposal_record
@@ -143,7 +148,7 @@ class StalmStep(SearchStep):
             if not settings.feedback or not proposal.plans:
                 break
             learned = self.memory.learn(failed_steps(episode.problem, concrete.plans))
-            refuted = self.memory.observe(episode.problem, concrete.plans)
+            refuted = self.memory.observe(grounded_steps(episode.problem, concrete.plans))
             self._record_round(done, round_, concrete, learned, refuted)
             fresh = {plan.task_plan.actions for plan in concrete.plans} - tried
             tried |= fresh
@@ -152,6 +157,16 @@ class StalmStep(SearchStep):
             if not fresh or time.monotonic() >= share_end:
                 break
         return plans, None
+
+    def search(self, plans: list[ConcretePlan]) -> tuple[Action, ...]:
+        """The search (:meth:`SearchStep.search`); with feedback, the picks and placements its
+        simulations found feasible then refute the rules that forbid them."""
+        chosen = super().search(plans)
+        tree = self.trial.tree
+        if self.settings.feedback and tree is not None:
+            refuted = self.memory.observe(grounded_in_tree(self.trial.episode.problem, tree))
+            self._step["rules_refuted_by_tree"] = refuted
+        return chosen
 
     def _record_round(
         self, done: int, round_: int, concrete: ConcretizeResult, learned: int, refuted: int

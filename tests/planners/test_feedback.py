@@ -9,10 +9,16 @@ from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action, PickParams, PlaceParams
 from stalm.motion.base_motion import BasePath
-from stalm.planners.feedback import FeedbackMemory, failed_steps
+from stalm.planners.feedback import (
+    FeedbackMemory,
+    failed_steps,
+    grounded_in_tree,
+    grounded_steps,
+)
 from stalm.planners.symbolic import SymbolicProposer
 from stalm.predicates.literals import GroundLiteral
 from stalm.search.concretize import ConcretePlan, ConcreteStep, TaskPlan
+from stalm.search.tree import SearchTree
 from stalm.world.state import Grasp, ObjectPose
 
 
@@ -211,8 +217,8 @@ def test_a_grounded_placement_refutes_a_rule_and_leaves_what_was_observed(proble
     on_counter3 = ObjectPose.make(4.6, 3.2, 1.03, 0.0)
     elsewhere = _grounded(in_back, Place("beef_grill", "on", "counter3"), on_counter3)
     coke_away = _grounded(problem.initial_state, place, P5_FRONT)
-    assert memory.observe(problem, [elsewhere, coke_away]) == 0
-    assert memory.observe(problem, [_grounded(in_back, place, P5_FRONT)]) == 1
+    assert memory.observe(grounded_steps(problem, [elsewhere, coke_away])) == 0
+    assert memory.observe(grounded_steps(problem, [_grounded(in_back, place, P5_FRONT)])) == 1
 
     (observed,) = memory.holding_in(at_front)
     assert observed.forbids is None
@@ -226,16 +232,33 @@ def test_a_grounded_placement_refutes_a_rule_and_leaves_what_was_observed(proble
     assert [step.forbids for step in memory.holding_in(at_side)] == [None]
 
 
+def test_a_placement_the_search_tree_found_feasible_refutes_a_rule(problems) -> None:
+    """The simulations' transitions are evidence too: a grill placed on counter1 beside the
+    coke deep in the tree (as the search's own draw, then perhaps executed) refutes 'no grill
+    on counter1 while the coke is there'; an infeasible one does not."""
+    problem = problems["P5"]
+    memory = FeedbackMemory.empty()
+    memory.learn([_crowded(problem, "beef_grill", {"coke": P5_FRONT})])
+    in_back = problem.initial_state.with_changes(poses={"coke": P5_BACK})
+    place = Place("beef_grill", "on", "counter1")
+    tree = SearchTree(problem.initial_state, [Pick("coke")])
+    tree.add_node(in_back, [place])
+    why = Infeasibility("no_placement", "no room", ("coke",))
+    tree.add_kappa(in_back, place, why, Outcome(in_back, -6.0, False, why))
+    assert memory.observe(grounded_in_tree(problem, tree)) == 0
+    (step,) = _grounded(in_back, place, P5_FRONT).steps
+    tree.add_kappa(in_back, place, step.kappa, step.outcome)
+    assert memory.observe(grounded_in_tree(problem, tree)) == 1
+    at_front = problem.initial_state.with_changes(poses={"coke": P5_FRONT})
+    assert [step.forbids for step in memory.holding_in(at_front)] == [None]
+
+
 def test_a_rule_learned_after_its_counterexample_is_refuted_at_once(problems) -> None:
     problem = problems["P5"]
     memory = FeedbackMemory.empty()
     in_back = problem.initial_state.with_changes(poses={"coke": P5_BACK})
-    assert (
-        memory.observe(
-            problem, [_grounded(in_back, Place("beef_grill", "on", "counter1"), P5_FRONT)]
-        )
-        == 0
-    )
+    placed = _grounded(in_back, Place("beef_grill", "on", "counter1"), P5_FRONT)
+    assert memory.observe(grounded_steps(problem, [placed])) == 0
     memory.learn([_crowded(problem, "beef_grill", {"coke": P5_FRONT})])
     at_front = problem.initial_state.with_changes(poses={"coke": P5_FRONT})
     assert [step.forbids for step in memory.holding_in(at_front)] == [None]
@@ -313,7 +336,7 @@ def test_a_pick_rule_keeps_the_occluder_off_the_region_and_a_grounded_pick_refut
     after = aside.with_changes(remove="coke", held=grasp)
     step = ConcreteStep(aside, pick, params, Outcome(after, 0.0, True))
     grounded = ConcretePlan(0, TaskPlan((pick,)), (step,), False, "partially_achieved_goal")
-    assert memory.observe(problem, [grounded]) == 1
+    assert memory.observe(grounded_steps(problem, [grounded])) == 1
     holding_now = memory.holding_in(state)
     assert all(step.forbids_pick is None for step in holding_now)
     occlusion = GroundLiteral("PickOccludedBy", ("coke", "beef_grill"))
