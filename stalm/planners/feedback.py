@@ -19,19 +19,17 @@ context they were learned in. Here each failed step becomes a :class:`FailedStep
 * a **rule** for a placement that found no free spot beside movable objects on its region
   (P5's cans after the grill): ``Forbids``/``Needs`` facts rule it out while those objects
   are on the region, wherever exactly. That is a generalisation from a few draws of their
-  poses, so it is weighed by evidence (:class:`FeedbackMemory`): each configuration of
-  those objects Concretize finds the placement infeasible in counts for it (``seen``), and
-  a placement Concretize grounds
-  while the rule's objects are on the region refutes it, after which only what was observed
-  (the failure at those exact poses, ``exact``) is kept. When the rules contradict each
-  other and leave no plan, the proposer gives up the least confirmed first;
+  poses: a placement Concretize or the search grounds while the rule's objects are on the
+  region refutes it (:class:`FeedbackMemory`), after which only what was observed (the
+  failure at those exact poses, ``exact``) is kept. Rules that contradict each other and
+  leave no plan are given up by the proposer in a random order;
 * a **rule** for a pick that collided with movable objects on the region its object rests on
   (P5's coke behind the grill): ``ForbidsPick``/``Needs`` facts rule it out while those
   objects are on that region, wherever exactly. The PDDL clears an occlusion by picking the
   occluder and predicts none from a placement, so without it the proposer's cheapest way
   past the occlusion is to put the occluder back down on the same region, and the exact
   lesson (the occlusion at the occluder's new pose) never applies where it plans from. It is
-  weighed by evidence like the placement rule;
+  refuted like the placement rule;
 * a **support**: the poses of the objects and the door states the failure depended on. A step
   learned in one state holds in any state where every supporting object still sits where it
   sat and no door it saw closed is open (objects added elsewhere and closed doors only add
@@ -87,11 +85,7 @@ class FailedStep:
     region, wherever exactly ``besides`` are (a generalisation, weighed like ``forbids``)."""
     exact: FailedStep | None = None
     """For a rule: the same failure scoped to the exact poses it was observed at (what is
-    left of the rule once a feasible placement refutes the generalisation)."""
-    seen: int = 1
-    """For a rule: in how many distinct configurations (poses of the objects it was about)
-    Concretize found its action infeasible, filled in by :meth:`FeedbackMemory.holding_in`;
-    the proposer keeps the best confirmed rules."""
+    left of the rule once a feasible pick or placement refutes the generalisation)."""
 
     @property
     def action(self) -> DiscreteAction:
@@ -319,13 +313,13 @@ class FeedbackMemory:
     robot moved an object applies again if the object comes back. Duplicates (the same action
     failing again for the same reason in the same context) are kept once.
 
-    A rule (``FailedStep.is_rule``) generalises from the draws that failed, so the memory
-    weighs the evidence about it: in how many distinct configurations it was observed
-    (``seen``: a rule the proposer gave up and Concretize then found true again, with the
-    objects elsewhere, has earned trust), and whether a
-    pick or placement Concretize grounded refutes it (:func:`refutes`). A refuted rule is
-    never handed to the proposer again; its observations are, each scoped to the poses it was
-    made at (``FailedStep.exact``): what was seen stays true, the generalisation does not.
+    A rule (``FailedStep.is_rule``) generalises from the draws that failed. Its failures do
+    not confirm it: when two rules forbid each other's order (no can after the grill, no
+    grill after a can drawn at the front), every failed try of the right order counts for
+    the wrong rule. What does tell is a counterexample: a pick or placement Concretize or the
+    search grounded where the rule forbids it (:func:`refutes`). A refuted rule is never
+    handed to the proposer again; its observations are, each scoped to the poses it was made
+    at (``FailedStep.exact``): what was seen stays true, the generalisation does not.
     """
 
     steps: list[FailedStep] = field(default_factory=list)
@@ -333,9 +327,7 @@ class FeedbackMemory:
         default_factory=dict
     )
     """Per rule (by :func:`_key`), its observations scoped to their exact poses, each
-    distinct configuration once: how many there are is the rule's ``seen``. The same
-    failure at the same poses again (an executed object that stays put) says nothing new
-    about other poses, so it does not count twice."""
+    distinct configuration once (what is kept of the rule once it is refuted)."""
     refuted: set[tuple[object, ...]] = field(default_factory=set)
     grounded: dict[tuple[State, DiscreteAction], Grounded] = field(default_factory=dict)
     """Every pick and placement grounded so far, by state and action: the evidence against
@@ -385,8 +377,8 @@ class FeedbackMemory:
         return refuted
 
     def holding_in(self, state: State) -> tuple[FailedStep, ...]:
-        """The steps that apply in ``state``: each rule with its ``seen`` count, or, once
-        refuted, its exact observations whose poses still hold."""
+        """The steps that apply in ``state``: each rule, or, once refuted, its exact
+        observations whose poses still hold."""
         holding: list[FailedStep] = []
         for step in self.steps:
             key = _key(step)
@@ -396,7 +388,7 @@ class FeedbackMemory:
             elif key in self.refuted:
                 holding += [s for s in self.exact.get(key, {}).values() if s.holds_in(state)]
             elif step.holds_in(state):
-                holding.append(replace(step, seen=max(1, len(self.exact.get(key, {})))))
+                holding.append(step)
         return tuple(holding)
 
 
