@@ -61,11 +61,16 @@ FEEDBACK_ARITY: dict[str, int] = {
     "RegionUnchangedFor": 2,
     "GoalRelation": 3,
     "Forbids": 5,
+    "ForbidsPick": 3,
     "Needs": 2,
 }
 #: The type of the problem's failure objects: one per placement that failed beside other
-#: objects, ``(Forbids f o dir ref region)`` while every ``(Needs f other)`` is on the region.
+#: objects, ``(Forbids f o dir ref region)`` while every ``(Needs f other)`` is on the region,
+#: and one per pick that collided with objects on the region it was on, ``(ForbidsPick f o
+#: region)`` while ``o`` and every ``(Needs f other)`` are on the region.
 FAILURE_TYPE = "failure"
+#: The feedback predicates whose first argument is a failure object.
+FAILURE_PREDICATES = ("Forbids", "ForbidsPick", "Needs")
 
 _PDDL_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]*")
 _RESERVED = frozenset({"object", "either", "and", "or", "not", "forall", "exists", "when"})
@@ -95,6 +100,7 @@ _FEEDBACK_PREDICATES = """    (PickFailed ?subject - movable_object ?region - re
     (GoalRelation ?subject - movable_object ?direction - direction ?reference - placeable)
     (Forbids ?failure - failure ?subject - movable_object ?direction - direction
              ?reference - placeable ?region - region)
+    (ForbidsPick ?failure - failure ?subject - movable_object ?region - region)
     (Needs ?failure - failure ?other - movable_object)"""
 
 _DERIVED = """  (:derived (UnsafePick ?subject - movable_object)
@@ -115,7 +121,11 @@ def _clear_occlusions_by(entity: str) -> str:
 
 _PICK_FEEDBACK = """
       (not (exists (?region - region)
-        (and (PickFailed ?subject ?region) (RegionUnchangedFor ?region ?subject))))"""
+        (and (PickFailed ?subject ?region) (RegionUnchangedFor ?region ?subject))))
+      (not (exists (?failure - failure ?region - region)
+        (and (ForbidsPick ?failure ?subject ?region) (AtPosition ?subject on ?region)
+             (forall (?other - movable_object)
+               (or (not (Needs ?failure ?other)) (AtPosition ?other on ?region))))))"""
 
 _PLACE_FEEDBACK = """
       (not (exists (?region - region)
@@ -262,7 +272,7 @@ def _check_literal(
             f"in {literal}"
         )
     known = set(vocabulary.all_names) | set(DIRECTIONS)
-    if feedback and literal.name in ("Forbids", "Needs"):
+    if feedback and literal.name in FAILURE_PREDICATES:
         known.add(literal.args[0])
     for arg in literal.args:
         if arg not in known:
@@ -286,7 +296,7 @@ def problem_pddl(
     """A strict PDDL problem for :func:`domain_pddl` with the same options.
 
     With ``feedback`` the init may hold the feedback predicates (``failures`` failure objects
-    ``failure0`` ... are declared for ``Forbids``/``Needs``), every region starts
+    ``failure0`` ... are declared for ``Forbids``/``ForbidsPick``/``Needs``), every region starts
     ``RegionUnchangedFor`` every movable object, and the goal's relative ``AtPosition``
     atoms become ``GoalRelation`` facts.
 
@@ -297,7 +307,7 @@ def problem_pddl(
     _check_names(vocabulary)
     for literal in init:
         _check_literal(vocabulary, literal, "init", feedback)
-        if literal.name in ("Forbids", "Needs") and literal.args[0] not in {
+        if literal.name in FAILURE_PREDICATES and literal.args[0] not in {
             failure_name(i) for i in range(failures)
         }:
             raise StalmError(f"init: {literal} names an undeclared failure object")

@@ -25,7 +25,12 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
 from stalm.planners.config import Progress, llm_backend, use_constraint
-from stalm.planners.feedback import FeedbackMemory, failed_steps
+from stalm.planners.feedback import (
+    FeedbackMemory,
+    failed_steps,
+    grounded_in_tree,
+    grounded_steps,
+)
 from stalm.planners.online import Sampling, Trial
 from stalm.planners.proposers import (
     FeedbackProposer,
@@ -151,7 +156,8 @@ class StalmStep(SearchStep):
             if not settings.feedback or not proposal.plans:
                 break
             learned = self.memory.learn(failed_steps(episode.problem, concrete.plans))
-            self._record_round(done, round_, concrete, learned)
+            refuted = self.memory.observe(grounded_steps(episode.problem, concrete.plans))
+            self._record_round(done, round_, concrete, learned, refuted)
             fresh = {plan.task_plan.actions for plan in concrete.plans} - tried
             tried |= fresh
             # ask again while the proposer still comes up with plans not tried in this step
@@ -160,8 +166,18 @@ class StalmStep(SearchStep):
                 break
         return plans, None
 
+    def search(self, plans: list[ConcretePlan]) -> tuple[Action, ...]:
+        """The search (:meth:`SearchStep.search`); with feedback, the picks and placements its
+        simulations found feasible then refute the rules that forbid them."""
+        chosen = super().search(plans)
+        tree = self.trial.tree
+        if self.settings.feedback and tree is not None:
+            refuted = self.memory.observe(grounded_in_tree(self.trial.episode.problem, tree))
+            self._step["rules_refuted_by_tree"] = refuted
+        return chosen
+
     def _record_round(
-        self, done: int, round_: int, concrete: ConcretizeResult, learned: int
+        self, done: int, round_: int, concrete: ConcretizeResult, learned: int, refuted: int
     ) -> None:
         self.step_records.append(
             {
@@ -170,6 +186,7 @@ class StalmStep(SearchStep):
                 "plans": len(concrete.plans),
                 "failures": [kind for _, kind in concrete.failures],
                 "facts_learned": learned,
+                "rules_refuted": refuted,
             }
         )
 

@@ -20,6 +20,8 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.serialize import discrete_from_json
 from stalm.domain.vocabulary import Vocabulary
@@ -179,16 +181,20 @@ class SymbolicProposer:
             return max(0.5, min(self.time_limit_s, deadline - time.monotonic()))
 
         start = time.perf_counter()
-        exact = [step for step in feedback if step.forbids is None]
-        rules = [step for step in feedback if step.forbids is not None]
+        exact = [step for step in feedback if not step.is_rule]
+        rules = [step for step in feedback if step.is_rule]
         base = set(literals) | {fact for step in exact for fact in step.facts}
         plans, reasons = self._search(problem, vocabulary, base, rules, n, seed, limit, deadline)
-        while not plans and rules and not _gave_up(reasons) and not _past(deadline):
+        if not plans and rules and not _gave_up(reasons):
             # the generalised rules contradict each other (P5: no can after the grill, and
-            # no grill after a can that was drawn in front): the newest is the likeliest to
-            # have generalised from an unlucky draw, so drop rules newest first
-            rules = rules[:-1]
-            plans, reasons = self._search(
+            # no grill after a can that was drawn in front). Nothing here tells the wrong one:
+            # neither its age (P5's wrong rules came first, P6's last) nor how often it failed
+            # (every failed try of the right order counts for the wrong rule). So each plan of
+            # the batch gives them up in its own order drawn from the seed, until Fast
+            # Downward finds a plan: the batch offers Concretize several resolutions at once,
+            # and the counterexamples it and the search find refute the wrong rules for good
+            # (FeedbackMemory).
+            plans, reasons = self._resolve(
                 problem, vocabulary, base, rules, n, seed, limit, deadline
             )
         return Proposal(
@@ -197,6 +203,42 @@ class SymbolicProposer:
             calls=0,
             seconds=time.perf_counter() - start,
         )
+
+    def _resolve(
+        self,
+        problem: Problem,
+        vocabulary: Vocabulary,
+        init: set[GroundLiteral],
+        rules: Sequence[FailedStep],
+        n: int,
+        seed: int,
+        limit: Callable[[], float],
+        deadline: float | None,
+    ) -> tuple[list[tuple[DiscreteAction, ...]], list[str]]:
+        """Up to ``n`` plans, the ``k``-th from the rules left after giving them up one by one
+        in the order ``default_rng(seed + k)`` draws, until Fast Downward finds a plan (each
+        set of rules is searched once)."""
+        plans: list[tuple[DiscreteAction, ...]] = []
+        reasons: list[str] = []
+        found: dict[frozenset[int], list[tuple[DiscreteAction, ...]]] = {}
+        for k in range(n):
+            kept = list(np.random.default_rng(seed + k).permutation(len(rules)))
+            while kept and not _past(deadline):
+                kept = kept[:-1]
+                key = frozenset(int(i) for i in kept)
+                if key not in found:
+                    subset = [rules[i] for i in sorted(key)]
+                    found[key], why = self._search(
+                        problem, vocabulary, init, subset, 1, seed + k, limit, deadline
+                    )
+                    reasons += why
+                    if _gave_up(why):
+                        return plans, reasons
+                if found[key]:
+                    if found[key][0] not in plans:
+                        plans.append(found[key][0])
+                    break
+        return plans, reasons
 
     def _search(
         self,
@@ -259,12 +301,15 @@ class SymbolicProposer:
 
 
 def _rule_literals(rules: Sequence[FailedStep]) -> list[GroundLiteral]:
-    """``Forbids``/``Needs`` facts for the placement rules, one failure object each."""
+    """``Forbids``/``ForbidsPick`` and ``Needs`` facts for the rules, one failure object each."""
     literals: list[GroundLiteral] = []
     for index, step in enumerate(rules):
-        assert step.forbids is not None
         name = failure_name(index)
-        literals.append(GroundLiteral("Forbids", (name, *step.forbids)))
+        if step.forbids is not None:
+            literals.append(GroundLiteral("Forbids", (name, *step.forbids)))
+        else:
+            assert step.forbids_pick is not None
+            literals.append(GroundLiteral("ForbidsPick", (name, *step.forbids_pick)))
         literals += [GroundLiteral("Needs", (name, other)) for other in step.besides]
     return literals
 
