@@ -201,8 +201,14 @@ class ExecutionSection:
     language model (the paper's method)."""
     feedback_rounds: int = 8
     """At most this many proposals per real step with feedback."""
-    step_share: float = 0.25
-    """Share of the remaining time one real step may spend asking again or searching on."""
+    search_rounds: int = 10
+    """'progress' rule: at most this many searches of N_budget simulations from one root
+    before falling back to the best-Q root action. A count, not a time, so that the same
+    seed makes the same decisions on a fast machine and on a slow one."""
+    step_share: float = 1.0
+    """Share of the remaining time one real step may spend asking again or searching on, a
+    guard beside the two counts above; 1.0: none but the trial's deadline (decisions then do
+    not depend on the machine's speed)."""
     kappa_tries: int = 3
     """κ draws per task-plan step in Concretize (and per chosen action in EP-SayCan): the
     authors' 3 (Algorithm 2 draws 1)."""
@@ -217,6 +223,7 @@ class ExecutionSection:
             "execution",
             (
                 ("feedback_rounds", self.feedback_rounds >= 1, "an integer >= 1"),
+                ("search_rounds", self.search_rounds >= 1, "an integer >= 1"),
                 ("step_share", 0.0 < self.step_share <= 1.0, "in (0, 1]"),
                 ("kappa_tries", self.kappa_tries >= 1, "an integer >= 1"),
                 ("backtracks", backtracks is None or backtracks >= 0, "an integer >= 0"),

@@ -33,8 +33,8 @@ DECISIONS: dict[str, str] = {
     "best_q": "no goal plan: the root action with the highest Q executed (the authors' rule)",
     "progress": "no goal plan: the highest-Q root action from which the tree knows a way to "
     "goal progress executed",
-    "best_q_fallback": "no goal plan and no root action known to lead to goal progress within "
-    "the step's share of time: the highest-Q root action executed",
+    "best_q_fallback": "no goal plan and no root action known to lead to goal progress after "
+    "search_rounds searches (or at the deadline): the highest-Q root action executed",
     "best_prefix": "STaLM w/o UCT: the first action of the task plan that got furthest",
     "nothing": "no root action had a feasible sample: nothing executed, asked again",
     "timeout": "the time budget ran out during the step",

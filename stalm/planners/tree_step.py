@@ -11,9 +11,9 @@ instead). :class:`SearchStep` is that step and its record (:mod:`stalm.planners.
   (:meth:`stalm.planners.online.Trial.execute`), so statistics accumulate over the episode;
 * **the execution rule**: without a goal plan, 'progress' executes the highest-Q root action
   from which the tree knows a way to more goal conjuncts than the root has, and while no
-  root action does, searches on from the same root (within the step's share of the time),
-  rather than spending an irreversible step of the horizon on a coin toss ('best_q', the
-  authors' rule).
+  root action does, searches on from the same root (at most ``search_rounds`` searches: a
+  count, so that the same seed decides the same on any machine), rather than spending an
+  irreversible step of the horizon on a coin toss ('best_q', the authors' rule).
 """
 
 from __future__ import annotations
@@ -52,13 +52,18 @@ class StalmSettings:
     for the paper's rows."""
     feedback_rounds: int = 8
     """At most this many proposals per real step with feedback (the first one included)."""
-    step_share: float = 0.25
+    search_rounds: int = 10
+    """'progress' rule: at most this many searches from one root before the best-Q fallback
+    (a count, so that decisions do not depend on the machine's speed)."""
+    step_share: float = 1.0
     """A real step may spend at most this fraction of the trial's remaining time asking the
-    proposer again (feedback) or searching on with no progress ('progress' rule)."""
+    proposer again (feedback) or searching on with no progress ('progress' rule); 1.0: no
+    guard but the trial's deadline."""
     execution: ExecutionRule = "best_q"
     """What to execute when no goal plan was found: 'best_q' the highest-Q root action (the
     authors' rule); 'progress' the highest-Q root action from which the tree reaches more
-    goal conjuncts than the root has, searching on (within ``step_share``) while none does."""
+    goal conjuncts than the root has, searching on (at most ``search_rounds`` searches) while
+    none does."""
     kappa_tries: int = 1
     """κ draws per task-plan step in Concretize (Algorithm 2: 1; the authors' code: 3)."""
     backtracks: int = 0
@@ -81,6 +86,8 @@ class StalmSettings:
             raise StalmError(f"kappa_tries must be at least 1, got {self.kappa_tries}")
         if self.feedback_rounds < 1:
             raise StalmError(f"feedback_rounds must be at least 1, got {self.feedback_rounds}")
+        if self.search_rounds < 1:
+            raise StalmError(f"search_rounds must be at least 1, got {self.search_rounds}")
         if not 0.0 < self.step_share <= 1.0:
             raise StalmError(f"step_share must be in (0, 1], got {self.step_share}")
 
@@ -101,6 +108,7 @@ def tree_settings(settings: RunSettings, planner: str, *, proposes: bool) -> Sta
         reuse_tree=execution.reuse_tree,
         feedback=feedback and proposes,
         feedback_rounds=execution.feedback_rounds,
+        search_rounds=execution.search_rounds,
         step_share=execution.step_share,
         execution=execution.rule,
         kappa_tries=execution.kappa_tries,
@@ -190,12 +198,16 @@ class SearchStep:
         visits_before = tree.visits(state)
         share_end = self.share_end()
 
+        searches = 0
+
         def decided(how: str) -> None:
             self._step["decision"] = how
+            self._step["searches"] = searches
             self._step["tree"] = tree_record(tree, warm_edges(plans), visits_before)
 
         warm = plans
         while True:
+            searches += 1
             trial.say(f"step {done}: warm-started UCT, {search.budget} simulations")
             with trial.phase("tree"):
                 result = warm_started_uct(
@@ -225,6 +237,7 @@ class SearchStep:
                 return (promising,)
             if (
                 result.stop_reason == "deadline"
+                or searches >= self.settings.search_rounds
                 or time.monotonic() >= share_end
                 or search.budget == 0
             ):

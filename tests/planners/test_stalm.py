@@ -187,6 +187,22 @@ def test_the_progress_rule_executes_the_best_action_that_leads_to_goal_progress(
     assert _best_promising_action(tree, GoalCountDouble({"s0": 1, "sg": 1})) is None
 
 
+def test_the_progress_rule_searches_on_a_counted_number_of_times_then_falls_back(
+    problems,
+) -> None:
+    """With one simulation per search the tree cannot see a goal conjunct two actions away,
+    so 'progress' searches on exactly ``search_rounds`` times and then executes the best-Q
+    root action: a count, so the same seed decides the same on a fast or a slow machine."""
+    settings = StalmSettings(search=SearchSettings(budget=1), execution="progress", search_rounds=3)
+    result = UctPlanner(settings).solve(problems["P2"], seed=0, time_budget_s=10.0)
+    first = result.details["step_log"][0]
+    assert first["decision"] == "best_q_fallback"
+    assert first["searches"] == 3
+    assert first["tree"]["root_visits"] == 3
+    again = UctPlanner(settings).solve(problems["P2"], seed=0, time_budget_s=10.0)
+    assert result.plan and again.plan and again.plan[0] == result.plan[0]
+
+
 class NoPlanProposerDouble:
     """A planning proposer's double whose every search comes back empty (as Fast Downward's
     does on an unsolvable abstraction)."""
