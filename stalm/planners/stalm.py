@@ -25,12 +25,8 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
 from stalm.planners.config import Progress, llm_backend, use_constraint
-from stalm.planners.feedback import (
-    FeedbackMemory,
-    failed_steps,
-    grounded_in_tree,
-    grounded_steps,
-)
+from stalm.planners.feedback import failed_steps
+from stalm.planners.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
 from stalm.planners.online import Sampling, Trial
 from stalm.planners.proposers import (
     FeedbackProposer,

@@ -9,12 +9,8 @@ from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action, PickParams, PlaceParams
 from stalm.motion.base_motion import BasePath
-from stalm.planners.feedback import (
-    FeedbackMemory,
-    failed_steps,
-    grounded_in_tree,
-    grounded_steps,
-)
+from stalm.planners.feedback import failed_steps
+from stalm.planners.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
 from stalm.planners.symbolic import SymbolicProposer
 from stalm.predicates.literals import GroundLiteral
 from stalm.search.concretize import ConcretePlan, ConcreteStep, TaskPlan
