@@ -200,16 +200,25 @@ def _crowded_placement(
     region = action.ref if action.direction == "on" else region_of(spec, state, action.ref)
     if region is None:
         return None, ()
-    besides = tuple(
-        sorted(
-            b
-            for b in why.blockers
-            if b != action.obj and state.has_pose(b) and region_of(spec, state, b) == region
-        )
-    )
+    besides = _blockers_on(problem, state, action.obj, region, why)
     if not besides:
         return None, ()
     return (action.obj, action.direction, action.ref, region), besides
+
+
+def _blockers_on(
+    problem: Problem, state: State, obj: str, region: str, why: Infeasibility
+) -> tuple[str, ...]:
+    """The movable objects other than ``obj`` that ``why`` blames and that rest on ``region``
+    (what a crowded-placement or crowded-pick rule names), sorted."""
+    spec = problem.spec
+    return tuple(
+        sorted(
+            b
+            for b in why.blockers
+            if b != obj and state.has_pose(b) and region_of(spec, state, b) == region
+        )
+    )
 
 
 def _crowded_pick(
@@ -223,13 +232,7 @@ def _crowded_pick(
     region = region_of(spec, state, action.obj)
     if region is None:
         return None, ()
-    besides = tuple(
-        sorted(
-            b
-            for b in why.blockers
-            if b != action.obj and state.has_pose(b) and region_of(spec, state, b) == region
-        )
-    )
+    besides = _blockers_on(problem, state, action.obj, region, why)
     if not besides:
         return None, ()
     return (action.obj, region), besides
