@@ -23,9 +23,9 @@ from stalm.world.state import State
 
 @dataclass(frozen=True)
 class Grounded:
-    """A pick or placement Concretize grounded: ``action`` was feasible in ``state``; its
-    object was on ``region`` (a pick) or came to rest there (a placement). It is the evidence
-    that refutes a rule forbidding that action."""
+    """A pick or placement Concretize or the search tree grounded: ``action`` was feasible in
+    ``state``; its object was on ``region`` (a pick) or came to rest there (a placement). It
+    is the evidence that refutes a rule forbidding that action."""
 
     state: State
     action: Pick | Place

@@ -11,8 +11,8 @@ in a fresh scene -- is :class:`~stalm.planners.online.OnlinePlanner`'s.
 Beyond the paper, each a setting of :class:`StalmSettings` with the paper's way one switch
 away: tree reuse and the execution rule (:mod:`stalm.planners.tree_step`), and **geometric
 feedback**: the steps Concretize found infeasible go back to the proposer
-(:mod:`stalm.planners.feedback`), which is asked again in the same step while it learns
-something new and the step's share of the time lasts.
+(:mod:`stalm.planners.feedback`), which is asked again in the same step while it comes up
+with task plans not yet tried there (at most ``feedback_rounds`` proposals per step).
 """
 
 from __future__ import annotations
@@ -38,12 +38,9 @@ from stalm.planners.settings import RunSettings
 from stalm.planners.step_log import proposal_record
 from stalm.planners.symbolic import SymbolicProposer
 from stalm.planners.tree_step import (
-    EXECUTION_RULES,
-    ExecutionRule,
     SearchStep,
     StalmSettings,
     TreePlanner,
-    _best_promising_action,
     tree_settings,
 )
 from stalm.search import (
@@ -54,14 +51,7 @@ from stalm.search import (
     concretize,
 )
 
-__all__ = [
-    "EXECUTION_RULES",
-    "ExecutionRule",
-    "StalmPlanner",
-    "StalmSettings",
-    "StalmStep",
-    "_best_promising_action",
-]
+__all__ = ["StalmPlanner", "StalmSettings", "StalmStep"]
 
 
 class StalmStep(SearchStep):
@@ -91,8 +81,8 @@ class StalmStep(SearchStep):
         }
 
     def propose(self) -> tuple[list[ConcretePlan], tuple[Action, ...] | None]:
-        """Task plans from the proposer, concretized; with feedback, ask again while the
-        failures teach something new and the step's share of the time lasts."""
+        """Task plans from the proposer, concretized; with feedback, ask again (at most
+        ``feedback_rounds`` times) while the proposer offers plans not yet tried in this step."""
         trial, proposer, settings = self.trial, self.proposer, self.settings
         episode, domain, state, done = trial.episode, trial.domain, trial.state, trial.done
         trial.say(f"step {done}: predicates")
@@ -175,6 +165,9 @@ class StalmStep(SearchStep):
     def _record_round(
         self, done: int, round_: int, concrete: ConcretizeResult, learned: int, refuted: int
     ) -> None:
+        """One feedback round in ``details['steps']``. ``facts_learned`` counts the lessons
+        (failed steps and rules) the round taught that were not known before, as
+        :meth:`FeedbackMemory.learn` returns them; a rule adds no PDDL fact of its own."""
         self.step_records.append(
             {
                 "step": done,

@@ -103,6 +103,9 @@ class SearchRun:
 
     plan: str | None
     output: str
+    returncode: int = 0
+    """The search's exit code (Fast Downward's: 11 unsolvable, 12 search incomplete, 22 out
+    of memory; negative when killed by a signal)."""
 
 
 def search_task(
@@ -132,13 +135,12 @@ def search_task(
             preexec_fn=limit_memory if memory_limit_mb is not None else None,
         )
     if not plan_file.exists():
-        return SearchRun(None, run.stdout)
-    return SearchRun(plan_file.read_text(), run.stdout)
+        return SearchRun(None, run.stdout, run.returncode)
+    return SearchRun(plan_file.read_text(), run.stdout, run.returncode)
 
 
-def _read_plan(text: str, vocabulary: Vocabulary) -> tuple[DiscreteAction, ...]:
-    """Fast Downward's plan file: one ``(op arg ...)`` per line, ``;`` comments."""
-    del vocabulary
+def _read_plan(text: str) -> tuple[DiscreteAction, ...]:
+    """Fast Downward's plan file as the proposer's discrete actions."""
     return tuple(discrete_from_json(list(step)) for step in read_plan_steps(text))
 
 
@@ -292,9 +294,9 @@ class SymbolicProposer:
                         reasons.append("Fast Downward found no plan in its time limit")
                     continue
                 if run.plan is None:
-                    reasons.append(_why(run.output))
+                    reasons.append(_why(run))
                     continue
-                plan = _read_plan(run.plan, vocabulary)
+                plan = _read_plan(run.plan)
                 if plan not in plans:
                     plans.append(plan)
         return plans, reasons
@@ -323,7 +325,16 @@ def _gave_up(reasons: Sequence[str]) -> bool:
     return any("time limit" in r or "memory" in r for r in reasons)
 
 
-def _why(output: str) -> str:
-    if "unsolvable" in output:
+def _why(run: SearchRun) -> str:
+    """Why a search gave no plan, from its exit code (its own time limit is never set: the
+    caller's timeout raises instead). Only time and memory count as giving up
+    (:func:`_gave_up`); an exhausted or incomplete search blames the rules."""
+    if run.returncode == 11 or "unsolvable" in run.output:
         return "the predicate abstraction of this state has no plan to the goal"
-    return "Fast Downward found no plan in its time limit"
+    if run.returncode == 22 or run.returncode < 0:
+        return f"Fast Downward ran out of memory or was killed (exit {run.returncode})"
+    if run.returncode == 23:
+        return "Fast Downward found no plan in its time limit"
+    if run.returncode == 12:
+        return "Fast Downward's search stopped without a plan (incomplete search)"
+    return f"Fast Downward's search failed without a plan (exit {run.returncode})"

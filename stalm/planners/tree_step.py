@@ -48,8 +48,8 @@ class StalmSettings:
     loop); False starts every real step from a fresh tree."""
     feedback: bool = False
     """Geometric feedback (:mod:`stalm.planners.feedback`): Concretize's failed steps go back
-    to the proposer, which is asked again while the step's share of the budget lasts. Off
-    for the paper's rows."""
+    to the proposer, which is asked again while it offers task plans not yet tried in the
+    step (at most ``feedback_rounds`` times). Off for the paper's rows."""
     feedback_rounds: int = 8
     """At most this many proposals per real step with feedback (the first one included)."""
     search_rounds: int = 10
@@ -90,11 +90,6 @@ class StalmSettings:
             raise StalmError(f"search_rounds must be at least 1, got {self.search_rounds}")
         if not 0.0 < self.step_share <= 1.0:
             raise StalmError(f"step_share must be in (0, 1], got {self.step_share}")
-
-    @property
-    def needs_occlusion(self) -> bool:
-        """Whether the predicate engine must plan occlusions (for the prompt or Hcount)."""
-        return self.occlusion_predicates
 
 
 def tree_settings(settings: RunSettings, planner: str, *, proposes: bool) -> StalmSettings:

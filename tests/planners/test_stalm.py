@@ -166,7 +166,7 @@ def test_the_progress_rule_executes_the_best_action_that_leads_to_goal_progress(
     conjunct; 'b' leads (two steps down) to one: 'progress' executes 'b'; with neither
     leading anywhere it executes nothing and the search goes on."""
     from stalm.domain.outcome import Outcome
-    from stalm.planners.stalm import _best_promising_action
+    from stalm.planners.tree_step import _best_promising_action
     from stalm.search.tree import Edge
     from tests.search.synthetic import drawn, move, state
 

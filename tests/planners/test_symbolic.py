@@ -96,3 +96,21 @@ def test_fast_downward_cut_short_by_the_deadline_is_a_timeout_not_an_error(
     own = SymbolicProposer(time_limit_s=0.01).propose(problem, problem.initial_state, [], 5, 0)
     assert own.plans == () and "time limit" in own.no_plan[0]
     assert own.unparseable == ()  # no reply was misread: the planner found no plan
+
+
+def test_a_search_without_a_plan_is_named_by_its_exit_code() -> None:
+    """Only running out of time or memory is 'giving up' (no rule to blame); an exhausted
+    or crashed search is named as such, not as a time limit."""
+    why = symbolic._why
+
+    def run(code: int, output: str = "") -> symbolic.SearchRun:
+        return symbolic.SearchRun(None, output, code)
+
+    unsolvable = why(run(11, "Task is provably unsolvable."))
+    assert "no plan to the goal" in unsolvable
+    assert "memory" in why(run(22)) and "memory" in why(run(-9))
+    assert "incomplete" in why(run(12))
+    assert "exit 33" in why(run(33))
+    assert "time limit" in why(run(23))
+    assert symbolic._gave_up([why(run(22))]) and symbolic._gave_up([why(run(23))])
+    assert not any(symbolic._gave_up([why(run(c))]) for c in (11, 12, 33))
