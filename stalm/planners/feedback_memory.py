@@ -134,6 +134,8 @@ class FeedbackMemory:
                 if step.exact is not None and _key(step.exact) not in scoped:
                     scoped[_key(step.exact)] = step.exact
                     added += key in self.refuted
+                if key in known:
+                    self._widen(key, step)
             if key not in known:
                 known.add(key)
                 self.steps.append(step)
@@ -141,6 +143,14 @@ class FeedbackMemory:
                 if step.is_rule and any(refutes(g, step) for g in self.grounded.values()):
                     self.refuted.add(key)
         return added
+
+    def _widen(self, key: tuple[object, ...], step: FailedStep) -> None:
+        """A known rule seen again with more doors open holds in those states too (a failure
+        with a door open holds with it closed: :meth:`FailedStep.holds_in`), so the copy that
+        applies in more states is kept."""
+        for index, known in enumerate(self.steps):
+            if _key(known) == key and known.open_doors < step.open_doors:
+                self.steps[index] = step
 
     def observe(self, grounded: Iterable[Grounded]) -> int:
         """Remember picks and placements found feasible (:func:`grounded_steps` of

@@ -186,7 +186,8 @@ class SymbolicProposer:
         exact = [step for step in feedback if not step.is_rule]
         rules = [step for step in feedback if step.is_rule]
         base = set(literals) | {fact for step in exact for fact in step.facts}
-        plans, reasons = self._search(problem, vocabulary, base, rules, n, seed, limit, deadline)
+        seeds = [plan_seed(seed, index) for index in range(n)]
+        plans, reasons = self._search(problem, vocabulary, base, rules, seeds, limit, deadline)
         if not plans and rules and not _gave_up(reasons):
             # the generalised rules contradict each other (P5: no can after the grill, and
             # no grill after a can that was drawn in front). Nothing here tells the wrong one:
@@ -218,20 +219,26 @@ class SymbolicProposer:
         deadline: float | None,
     ) -> tuple[list[tuple[DiscreteAction, ...]], list[str]]:
         """Up to ``n`` plans, the ``k``-th from the rules left after giving them up one by one
-        in the order ``default_rng(seed + k)`` draws, until Fast Downward finds a plan (each
+        in the order ``default_rng([seed, k])`` draws, until Fast Downward finds a plan (each
         set of rules is searched once)."""
         plans: list[tuple[DiscreteAction, ...]] = []
         reasons: list[str] = []
         found: dict[frozenset[int], list[tuple[DiscreteAction, ...]]] = {}
         for k in range(n):
-            kept = list(np.random.default_rng(seed + k).permutation(len(rules)))
+            kept = list(np.random.default_rng([seed, k]).permutation(len(rules)))
             while kept and not _past(deadline):
                 kept = kept[:-1]
                 key = frozenset(int(i) for i in kept)
                 if key not in found:
                     subset = [rules[i] for i in sorted(key)]
                     found[key], why = self._search(
-                        problem, vocabulary, init, subset, 1, seed + k, limit, deadline
+                        problem,
+                        vocabulary,
+                        init,
+                        subset,
+                        [plan_seed(seed, n + k)],
+                        limit,
+                        deadline,
                     )
                     reasons += why
                     if _gave_up(why):
@@ -248,13 +255,12 @@ class SymbolicProposer:
         vocabulary: Vocabulary,
         init: set[GroundLiteral],
         rules: Sequence[FailedStep],
-        n: int,
-        seed: int,
+        seeds: Sequence[int],
         limit: Callable[[], float],
         deadline: float | None,
     ) -> tuple[list[tuple[DiscreteAction, ...]], list[str]]:
-        """Up to ``n`` distinct plans from Fast Downward on ``init`` and the rules, and the
-        reasons of the runs that gave none."""
+        """The distinct plans of one Fast Downward run per seed on ``init`` and the rules, and
+        the reasons of the runs that gave none."""
         plans: list[tuple[DiscreteAction, ...]] = []
         reasons: list[str] = []
         if _past(deadline):  # the caller stops with 'timeout'; no Fast Downward past it
@@ -282,11 +288,9 @@ class SymbolicProposer:
                 return plans, why
             except DownwardGaveUp as error:
                 return plans, [str(error)]
-            for index in range(n):
+            for fd_seed in seeds:
                 if deadline is not None and time.monotonic() >= deadline:
                     break
-                # Fast Downward takes a signed 32-bit seed
-                fd_seed = (seed + index) % 2**31
                 try:
                     run = search_task(work, SEARCH.format(seed=fd_seed), limit())
                 except subprocess.TimeoutExpired:
@@ -300,6 +304,15 @@ class SymbolicProposer:
                 if plan not in plans:
                     plans.append(plan)
         return plans, reasons
+
+
+def plan_seed(query_seed: int, index: int) -> int:
+    """Fast Downward's seed (a signed 32-bit number) for the ``index``-th search of a query.
+
+    Drawn from both numbers rather than added, so that queries with consecutive seeds (STaLM's
+    k-th proposal of a trial has seed base + k) share no search: asked again on an unchanged
+    PDDL, the proposer draws five new plans instead of repeating four of the last five."""
+    return int(np.random.SeedSequence([query_seed % 2**64, index]).generate_state(1)[0]) % 2**31
 
 
 def _rule_literals(rules: Sequence[FailedStep]) -> list[GroundLiteral]:

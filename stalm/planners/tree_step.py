@@ -244,20 +244,20 @@ class SearchStep:
 def _best_promising_action(tree: SearchTree, domain: Domain) -> Action | None:
     """The 'progress' rule: the highest-Q root action whose subtree holds a state with more
     goal conjuncts true than the root (the tree knows a way on from it to goal progress),
-    with its highest-Q feasible κ; None if no root action leads to progress."""
+    with the highest-Q of its feasible κ that lead there; None if no root action leads to
+    progress."""
     root = tree.node(tree.root)
     baseline = domain.goal_atoms_true(tree.root)
     best: tuple[float, int, Action] | None = None
     for cont in root.children:
-        kappas = [k for k in cont.children if k.n > 0 and k.outcome.feasible]
-        if not kappas:
-            continue
-        kappa = max(kappas, key=lambda k: (k.q, k.n))
         if best is not None and (cont.q, cont.n) <= best[:2]:
             continue
-        if _reaches_progress(tree, domain, kappa.outcome.state, baseline):
-            # a feasible κ child is keyed by its sampled action
-            best = (cont.q, cont.n, cast(Action, kappa.kappa))
+        kappas = [k for k in cont.children if k.n > 0 and k.outcome.feasible]
+        for kappa in sorted(kappas, key=lambda k: (k.q, k.n), reverse=True):
+            if _reaches_progress(tree, domain, kappa.outcome.state, baseline):
+                # a feasible κ child is keyed by its sampled action
+                best = (cont.q, cont.n, cast(Action, kappa.kappa))
+                break
     return None if best is None else best[2]
 
 

@@ -3,6 +3,8 @@ for as long as the part of the state they were about stays as it was."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from stalm.domain.actions import Open, Pick, Place
@@ -110,6 +112,16 @@ def test_no_room_beside_an_object_is_a_rule_about_that_object_being_there(
             elif isinstance(action, Place) and action.ref == "table1":
                 assert not (action.obj == "bottle3" and "bottle2" in on_table1), proposed
                 on_table1.add(action.obj)
+
+    # the same rule seen first with the door closed, then with it open: the copy that holds
+    # in more states (the door open or closed) is kept
+    narrow = replace(learned[0], open_doors=frozenset())
+    memory = FeedbackMemory.empty()
+    assert memory.learn([narrow]) == 1
+    assert memory.holding_in(state) == ()  # the door is open in ``state``
+    assert memory.learn(learned) == 0  # not a new lesson ...
+    assert memory.holding_in(state) == tuple(learned)  # ... but it holds there now
+    assert memory.holding_in(problem.initial_state) == tuple(learned)
 
 
 def test_a_rule_that_leaves_no_plan_is_dropped(problems, initial_literals) -> None:

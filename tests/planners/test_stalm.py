@@ -187,6 +187,30 @@ def test_the_progress_rule_executes_the_best_action_that_leads_to_goal_progress(
     assert _best_promising_action(tree, GoalCountDouble({"s0": 1, "sg": 1})) is None
 
 
+def test_the_progress_rule_looks_below_every_feasible_kappa_of_an_action() -> None:
+    """Action 'b' has two draws: the higher-Q one leads nowhere, the other (a different
+    grasp or placement) leads to a goal conjunct. The rule executes 'b' with that draw
+    rather than passing 'b' over."""
+    from stalm.domain.outcome import Outcome
+    from stalm.planners.tree_step import _best_promising_action
+    from stalm.search.tree import Edge
+    from tests.search.synthetic import drawn, move, state
+
+    s0, s1, s2, sg = state("s0"), state("s1"), state("s2"), state("sg")
+    tree = SearchTree(s0, [move("b")])
+    k1, k2, kc = drawn("b", 1), drawn("b", 2), drawn("c", 1)
+    tree.add_kappa(s0, move("b"), k1, Outcome(s1, 0.0, True))
+    tree.add_kappa(s0, move("b"), k2, Outcome(s2, 0.0, True))
+    tree.add_node(s1, [])
+    tree.add_node(s2, [move("c")])
+    tree.add_kappa(s2, move("c"), kc, Outcome(sg, 3.0, True))
+    tree.backup([Edge(s0, move("b"), k1)], 5.0, 1.0, s1)
+    tree.backup([Edge(s0, move("b"), k2), Edge(s2, move("c"), kc)], -6.0, 1.0)
+    kappas = {k.kappa: k.q for k in tree.node(s0).child(move("b")).children}
+    assert kappas[k1] > kappas[k2]
+    assert _best_promising_action(tree, GoalCountDouble({"sg": 1})) == k2
+
+
 def test_the_progress_rule_searches_on_a_counted_number_of_times_then_falls_back(
     problems,
 ) -> None:

@@ -114,3 +114,13 @@ def test_a_search_without_a_plan_is_named_by_its_exit_code() -> None:
     assert "time limit" in why(run(23))
     assert symbolic._gave_up([why(run(22))]) and symbolic._gave_up([why(run(23))])
     assert not any(symbolic._gave_up([why(run(c))]) for c in (11, 12, 33))
+
+
+def test_queries_with_consecutive_seeds_share_no_fast_downward_search() -> None:
+    """STaLM's k-th proposal of a trial has seed base + k: were the searches' seeds base + k +
+    index, a query asked again on the same PDDL would repeat four of its five searches."""
+    seeds = [symbolic.plan_seed(query, index) for query in range(3) for index in range(5)]
+    assert len(set(seeds)) == len(seeds)
+    assert all(0 <= seed < 2**31 for seed in seeds)
+    assert symbolic.plan_seed(7, 2) == symbolic.plan_seed(7, 2)
+    assert 0 <= symbolic.plan_seed(-1, 0) < 2**31
