@@ -219,13 +219,14 @@ class SymbolicProposer:
         deadline: float | None,
     ) -> tuple[list[tuple[DiscreteAction, ...]], list[str]]:
         """Up to ``n`` plans, the ``k``-th from the rules left after giving them up one by one
-        in the order ``default_rng([seed, k])`` draws, until Fast Downward finds a plan (each
-        set of rules is searched once)."""
+        in the order ``default_rng([seed, k])`` draws (``seed`` mod 2**64, as in
+        :func:`plan_seed`), until Fast Downward finds a plan (each set of rules is searched
+        once)."""
         plans: list[tuple[DiscreteAction, ...]] = []
         reasons: list[str] = []
         found: dict[frozenset[int], list[tuple[DiscreteAction, ...]]] = {}
         for k in range(n):
-            kept = list(np.random.default_rng([seed, k]).permutation(len(rules)))
+            kept = list(np.random.default_rng([seed % 2**64, k]).permutation(len(rules)))
             while kept and not _past(deadline):
                 kept = kept[:-1]
                 key = frozenset(int(i) for i in kept)
