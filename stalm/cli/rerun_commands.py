@@ -4,7 +4,10 @@ A record (``stalm solve --json``, or one line of an experiment's results file) k
 problem's name and hash, the planner, the seed and the whole resolved settings tree. This
 command builds the same planner from them, solves the same problem with the same seed and
 says whether the plan is the record's: with the same cached replies and a run the clock did
-not cut short, it is, action for action and number for number.
+not cut short, it is, action for action; on the machine that made the record number for
+number, on another one with its continuous values within
+:data:`~stalm.geometry.tolerance.CONTINUOUS_TOLERANCE` (CPUs round the last bits of IK and
+trigonometry differently), which still counts as the record's plan.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
 from stalm.cli.solve_output import console, note_embedded, out, solve_and_report
 from stalm.errors import StalmError
+from stalm.geometry.tolerance import CONTINUOUS_TOLERANCE, close_enough
 from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
 
 commands = typer.Typer()
@@ -53,9 +57,10 @@ def read_record(path: Path, key: str | None) -> dict[str, Any]:
 
 
 def first_difference(recorded: list[Any], now: list[Any]) -> int | None:
-    """The index of the first action that differs between two plans (as JSON), or None."""
+    """The index of the first action that differs between two plans (as JSON), or None: the
+    discrete parts exactly, continuous values within the tolerance."""
     for index, (a, b) in enumerate(zip(recorded, now, strict=False)):
-        if a != b:
+        if not close_enough(a, b):
             return index
     return None if len(recorded) == len(now) else min(len(recorded), len(now))
 
@@ -120,7 +125,10 @@ def rerun_command(
     recorded = record.get("plan") or []
     differs = first_difference(recorded, now)
     if differs is None:
-        out.print(f"[green]the plan is the record's ({len(now)} actions)[/]", highlight=False)
+        exact = "" if recorded == now else f", continuous values within {CONTINUOUS_TOLERANCE:g}"
+        out.print(
+            f"[green]the plan is the record's ({len(now)} actions{exact})[/]", highlight=False
+        )
     else:
         out.print(
             f"[red]the plan differs from the record's from action {differs + 1}[/] "

@@ -119,6 +119,17 @@ def test_a_solve_record_keeps_the_tree_and_reruns_to_the_same_plan(
     again = json.loads(second.read_text())
     assert again["plan"] == record["plan"] and again["seed"] == 2
     assert again["settings"] == record["settings"]
+    # another machine's last bits: still the record's plan, within the tolerance
+    waypoints = record["plan"][0]["arm_waypoints"]
+    waypoints[2][1] += 1e-9
+    first.write_text(json.dumps(record))
+    assert run_cli(monkeypatch, "rerun", str(first)) == 0
+    assert "(1 actions, continuous values within 2e-06)" in capsys.readouterr().out
+    # beyond it: a different plan
+    waypoints[2][1] += 1e-4
+    first.write_text(json.dumps(record))
+    assert run_cli(monkeypatch, "rerun", str(first)) == 1
+    assert "differs from the record's from action 1" in capsys.readouterr().out
     # a record whose plan is not what the run gives: exit 1, saying from where
     record["plan"][0]["discrete"] = ["open", "nowhere"]
     first.write_text(json.dumps(record))
