@@ -7,8 +7,9 @@ placements targeted at one relative position. The motions themselves are built b
 :class:`~stalm.motion.manipulation.Manipulator`, as PICK's and PLACE's samplers build them.
 
 Each action's draws come from a generator seeded by the action's own key
-(:func:`stable_seed`), so what is sampled for one action does not depend on what else was
-computed before. The literals, and which samples are drawn again when the state changes, are
+(:func:`stable_seed`: its names, not its continuous values), so what is sampled for one action
+does not depend on what else was computed before, nor on the last bits of the grasp it is
+drawn for. The literals, and which samples are drawn again when the state changes, are
 :class:`~stalm.predicates.engine.PredicateEngine`'s.
 """
 
@@ -69,8 +70,14 @@ class PickRecord:
     motions: tuple[SweptMotion, ...]
 
 
-def stable_seed(*parts: object) -> int:
-    """A seed from an action's key, the same in every process (``hash`` is salted)."""
+def stable_seed(*parts: int | str) -> int:
+    """A seed from an action's key, the same in every process (``hash`` is salted).
+
+    The key holds names and integers only, never a continuous value: a grasp or a pose
+    computed by IK differs in its last bits from one CPU to another, and a seed taken from
+    its digits would draw other samples there (other literals, another plan)."""
+    if not all(isinstance(part, int | str) for part in parts):
+        raise TypeError(f"a sample seed's key holds names and integers only: {parts!r}")
     digest = hashlib.sha256(repr(parts).encode()).digest()
     return int.from_bytes(digest[:8], "little")
 
@@ -149,9 +156,7 @@ class MotionSamples:
     ) -> tuple[PlacementSample, ...]:
         """Up to ``placements_per_region`` placements of ``obj`` held at ``grasp`` on
         ``region``, keeping the yaw ``offset`` from the standing pose."""
-        rng = np.random.default_rng(
-            stable_seed(self.settings.seed, "place", obj, region.name, grasp)
-        )
+        rng = np.random.default_rng(stable_seed(self.settings.seed, "place", obj, region.name))
         wanted, draws = self.settings.placements_per_region, self.settings.placement_draws
         return self._draw(obj, grasp, offset, region, rng, wanted, draws)
 
@@ -168,7 +173,7 @@ class MotionSamples:
         """Placements drawn until ``targeted_samples`` lie in ``direction`` of ``ref`` (at
         ``ref_pose`` on ``region``): for a relative position no plain placement landed in."""
         rng = np.random.default_rng(
-            stable_seed(self.settings.seed, "target", obj, direction, ref, grasp, ref_pose)
+            stable_seed(self.settings.seed, "target", obj, direction, ref)
         )
         wanted, draws = self.settings.targeted_samples, self.settings.targeted_draws
         return self._draw(
