@@ -10,15 +10,19 @@ drive to. A planner meeting such a problem fails late and obscurely (no path, no
 
 Reachability is judged on the base roadmap the planners use (with every door open, so the
 other room counts as reachable), from the robot's start to every region's and door's standing
-pose: a pose the roadmap cannot reach is one no planner here can use.
+pose: a pose the roadmap cannot reach is one no planner here can use. Such a fault says why
+(:func:`why_unreachable`): a doorway narrower than the robot, the bodies that wall the pose
+off from the start (found by flooding the floor on a grid with the robot's footprint), or, if
+the floor does connect them, that the roadmap missed a passage.
 """
 
 from __future__ import annotations
 
+import math
 from collections import deque
 
 from stalm.errors import StalmError
-from stalm.motion.roadmap import Roadmap, RoadmapSettings, load_or_build_roadmap
+from stalm.motion.roadmap import FootprintChecker, Roadmap, RoadmapSettings, load_or_build_roadmap
 from stalm.world import robot as robot_model
 from stalm.world.problem import Problem
 from stalm.world.scene import Sim
@@ -80,17 +84,116 @@ def problem_geometry_faults(problem: Problem, settings: RoadmapSettings | None =
         if faults:
             return faults
         doors = frozenset(door.name for door in spec.doors)
-        roadmap = load_or_build_roadmap(sim, doors, settings or RoadmapSettings())
-    start = roadmap.anchor_index(*spec.robot.base[:2])
-    reached = _reachable(roadmap, start) if start is not None else set()
-    for where, pose in _standing_poses(problem):
-        anchor = roadmap.anchor_index(pose[0], pose[1])
-        if anchor is None or anchor not in reached:
-            faults.append(
-                f"{where}: the base cannot drive there from the robot's start "
-                "(no roadmap path, even with every door open)"
-            )
+        settings = settings or RoadmapSettings()
+        roadmap = load_or_build_roadmap(sim, doors, settings)
+        start = roadmap.anchor_index(*spec.robot.base[:2])
+        reached = _reachable(roadmap, start) if start is not None else set()
+        unreachable = [
+            (where, pose)
+            for where, pose in _standing_poses(problem)
+            if roadmap.anchor_index(pose[0], pose[1]) not in reached
+        ]
+        if unreachable:
+            flood = FloorFlood(sim, settings)
+            for where, pose in unreachable:
+                faults.append(
+                    f"{where}: the base cannot drive there from the robot's start, even with "
+                    f"every door open: {flood.why_unreachable(pose)}"
+                )
     return faults
+
+
+GRID = 0.1
+"""Cell size (m) of the floor flood that explains an unreachable pose."""
+
+
+class FloorFlood:
+    """The floor cells the robot's footprint can stand on, flooded from the robot's start
+    with every door open: what separates a standing pose from the start."""
+
+    def __init__(self, sim: Sim, settings: RoadmapSettings) -> None:
+        self.sim = sim
+        self.settings = settings
+        spec = sim.problem
+        for door in spec.doors:
+            sim.set_door(door.name, True)
+        checker = FootprintChecker(sim, settings)
+        try:
+            (x0, y0), (x1, y1) = spec.floor
+            self.origin = (x0, y0)
+            self.shape = (max(1, math.ceil((x1 - x0) / GRID)), max(1, math.ceil((y1 - y0) / GRID)))
+            self.blocked: dict[tuple[int, int], set[int]] = {}
+            for i in range(self.shape[0]):
+                for j in range(self.shape[1]):
+                    hits = checker.hits(*self.centre((i, j)))
+                    if hits:
+                        self.blocked[(i, j)] = hits
+        finally:
+            checker.remove()
+        self.start = self._flood(self.cell(spec.robot.base[:2]))
+
+    def centre(self, cell: tuple[int, int]) -> tuple[float, float]:
+        return (self.origin[0] + (cell[0] + 0.5) * GRID, self.origin[1] + (cell[1] + 0.5) * GRID)
+
+    def cell(self, xy: tuple[float, ...]) -> tuple[int, int]:
+        i = min(self.shape[0] - 1, max(0, int((xy[0] - self.origin[0]) / GRID)))
+        j = min(self.shape[1] - 1, max(0, int((xy[1] - self.origin[1]) / GRID)))
+        return (i, j)
+
+    def _neighbours(self, cell: tuple[int, int]) -> list[tuple[int, int]]:
+        i, j = cell
+        return [
+            (a, b)
+            for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1))
+            if 0 <= a < self.shape[0] and 0 <= b < self.shape[1]
+        ]
+
+    def _flood(self, seed: tuple[int, int]) -> set[tuple[int, int]]:
+        """The free cells connected to ``seed`` (the nearest free one if it is blocked)."""
+        if seed in self.blocked:
+            free = [c for c in self._neighbours(seed) if c not in self.blocked]
+            if not free:
+                return set()
+            seed = free[0]
+        seen = {seed}
+        queue = deque([seed])
+        while queue:
+            for nxt in self._neighbours(queue.popleft()):
+                if nxt not in seen and nxt not in self.blocked:
+                    seen.add(nxt)
+                    queue.append(nxt)
+        return seen
+
+    def _bounding(self, component: set[tuple[int, int]]) -> set[int]:
+        """The bodies the footprint hits just outside ``component``: what bounds it."""
+        bodies: set[int] = set()
+        for cell in component:
+            for nxt in self._neighbours(cell):
+                bodies |= self.blocked.get(nxt, set())
+        return bodies
+
+    def why_unreachable(self, pose: tuple[float, float, float]) -> str:
+        """Why the roadmap has no route from the start to ``pose``, in words."""
+        narrow = [
+            door for door in self.sim.problem.doors if door.width < 2 * self.settings.proxy_radius
+        ]
+        goal = self._flood(self.cell(pose))
+        if goal & self.start:
+            where = ", ".join(f"{v:.2f}" for v in pose[:2])
+            return (
+                "the floor joins them but the base roadmap found no route (a passage too "
+                f"narrow for its samples on the way to ({where}); try more roadmap samples)"
+            )
+        if narrow:
+            return "; ".join(
+                f"the doorway of '{door.name}' is {door.width:.2f} m wide, narrower than the "
+                f"robot ({2 * self.settings.proxy_radius:.2f} m)"
+                for door in narrow
+            )
+        separating = self._bounding(self.start) & self._bounding(goal)
+        if not separating:
+            return "no floor the robot fits on joins it to the start"
+        return f"walled off from the start by {_names(self.sim, separating)}"
 
 
 def check_problem_geometry(problem: Problem, settings: RoadmapSettings | None = None) -> None:

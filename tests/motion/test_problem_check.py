@@ -70,6 +70,7 @@ def test_a_standing_pose_the_base_cannot_reach(problems, tmp_path) -> None:
         check_problem_geometry(problem)
     message = str(caught.value)
     assert "regions[6].base_pose ('table2'): the base cannot drive there" in message
+    assert "walled off from the start by 'closet_e', 'closet_n', 'closet_s', 'closet_w'" in message
     assert problem.source in message
 
 
