@@ -15,8 +15,8 @@ from stalm.cli.text_commands import format_parsed_reply_json, format_prompt, par
 from stalm.cli.world_commands import read_state_file
 from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.problem_prompt import ordered_literals, problem_prompt
-from stalm.llm.prompt import PromptOptions
-from stalm.predicates.literals import GroundLiteral
+from stalm.llm.prompt import PromptOptions, cannot_action
+from stalm.predicates.literals import CANNOT_PREDICATES, GroundLiteral
 from stalm.world.problem import Problem, load_problem
 
 commands = typer.Typer()
@@ -57,9 +57,13 @@ def predicates_command(
     if as_json:
         typer.echo(json.dumps([list(lit.as_tuple()) for lit in literals], indent=1))
         return
+    cannot = [lit for lit in literals if lit.name in CANNOT_PREDICATES]
     for literal in literals:
-        typer.echo(printable(literal))
-    typer.echo(f"# {len(literals)} literals", err=True)
+        if literal.name not in CANNOT_PREDICATES:
+            typer.echo(printable(literal))
+    for literal in cannot:  # actions no motion can do: the paper's prompt does not show them
+        typer.echo(printable(f"cannot: {cannot_action(literal)}"))
+    typer.echo(f"# {len(literals) - len(cannot)} literals, {len(cannot)} cannot", err=True)
 
 
 @commands.command("prompt")

@@ -20,6 +20,7 @@ commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
 
 console = Console()
+warnings = Console(stderr=True)
 
 
 def _problem_row(problem: Problem) -> tuple[str, ...]:
@@ -33,6 +34,25 @@ def _problem_row(problem: Problem) -> tuple[str, ...]:
         goal,
     )
     return tuple(shown(cell) for cell in cells)
+
+
+def _warn_stuck(problem: Problem) -> None:
+    """A warning per object no action can ever move (a goal needing it is unreachable)."""
+    from stalm.motion.base_motion import BasePlanner
+    from stalm.predicates.stuck import stuck_objects
+    from stalm.world.scene import Sim
+
+    with Sim(problem.spec) as sim:
+        stuck = stuck_objects(problem, sim, BasePlanner(sim))
+    goal_objects = {g.obj for g in problem.goal}
+    for name, why in stuck.items():
+        needed = " (the goal names it)" if name in goal_objects else ""
+        warnings.print(
+            f"[yellow]warning:[/] {shown(problem.source)}: '{shown(name)}' can never be "
+            f"moved{needed}: {why}",
+            highlight=False,
+            soft_wrap=True,
+        )
 
 
 @commands.command("problems")
@@ -62,6 +82,7 @@ def problems_command(
         with console.status("checking the scenes in the simulator..."):
             for problem in problems:
                 check_problem_geometry(problem)
+                _warn_stuck(problem)
     if as_json:
         rows = [
             {

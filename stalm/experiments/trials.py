@@ -96,7 +96,10 @@ def _config_json(settings: RunSettings) -> dict[str, Any]:
     data = dataclasses.asdict(PlannerConfig.from_settings(settings))
     data.pop("cache_mode")
     data.pop("cache_file")
-    flat = {*FLAT_NAMES.values(), "prompt.occlusion_predicates", "prompt.ask_challenges"}
+    if not data["prompt"]["cannot_actions"]:
+        del data["prompt"]["cannot_actions"]  # added later: runs that leave it off keep keys
+    prompt = {f"prompt.{f.name}" for f in dataclasses.fields(settings.prompt)}
+    flat = {*FLAT_NAMES.values(), *prompt}
     others = {k: v for k, v in changed(settings).items() if k not in flat and k not in KEYLESS}
     if others:
         data["settings"] = others

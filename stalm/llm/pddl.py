@@ -20,6 +20,9 @@ Where strict PDDL forces a choice, the choice and its reason:
   there, as the prompt is); STaLM recomputes the predicates from geometry at every query.
 * ``UnsafePick``/``UnsafePlace`` stay derived predicates (``:derived-predicates``), as in the
   prompt, rather than being compiled into the preconditions.
+* Beyond the prompt, ``CannotPick``/``CannotPlace`` (actions no motion can do in the state,
+  :data:`~stalm.predicates.literals.CANNOT_PREDICATES`) rule those actions out with the
+  occlusions: a classical planner must not count on them, as the paper's prompt let it.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from stalm.domain.actions import DIRECTIONS
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
 from stalm.llm.prompt import DOOR_TYPE, MOVABLE_TYPE, REGION_TYPE, PromptOptions
-from stalm.predicates.literals import OCCLUSION_PREDICATES, GroundLiteral
+from stalm.predicates.literals import CANNOT_PREDICATES, OCCLUSION_PREDICATES, GroundLiteral
 
 DOMAIN_NAME = "shop"
 #: Supertype of everything ``place`` can put an object relative to: regions and movables.
@@ -49,6 +52,8 @@ PREDICATE_ARITY: dict[str, int] = {
     "IsClosed": 1,
     "PickOccludedBy": 2,
     "PlaceOccludedBy": 4,
+    "CannotPick": 1,
+    "CannotPlace": 3,
 }
 
 #: The geometric-feedback predicates (``domain_pddl(feedback=True)``): a pick or placement
@@ -91,7 +96,9 @@ _OCCLUSION_PREDICATES = """    (PickOccludedBy ?subject - movable_object ?occlud
     (PlaceOccludedBy ?subject - movable_object ?direction - direction ?reference - placeable
                      ?occluder - entity)
     (UnsafePick ?subject - movable_object)
-    (UnsafePlace ?subject - movable_object ?direction - direction ?reference - placeable)"""
+    (UnsafePlace ?subject - movable_object ?direction - direction ?reference - placeable)
+    (CannotPick ?subject - movable_object)
+    (CannotPlace ?subject - movable_object ?direction - direction ?reference - placeable)"""
 
 _FEEDBACK_PREDICATES = """    (PickFailed ?subject - movable_object ?region - region)
     (PlaceFailed ?subject - movable_object ?direction - direction ?reference - placeable
@@ -159,8 +166,13 @@ def _actions(occlusion: bool, feedback: bool = False, goal_relations_only: bool 
     other object is put *on* a region, which covers every spot a relative placement there
     could name, so no plan is lost while the planner's choices (and its grounding, which
     grows with objects squared) shrink to what can matter."""
-    pick_safe = " (not (UnsafePick ?subject))" if occlusion else ""
-    place_safe = "\n      (not (UnsafePlace ?subject ?direction ?reference))" if occlusion else ""
+    pick_safe = " (not (UnsafePick ?subject)) (not (CannotPick ?subject))" if occlusion else ""
+    place_safe = (
+        "\n      (not (UnsafePlace ?subject ?direction ?reference))"
+        "\n      (not (CannotPlace ?subject ?direction ?reference))"
+        if occlusion
+        else ""
+    )
     pick_safe += _PICK_FEEDBACK if feedback else ""
     place_safe += _PLACE_FEEDBACK if feedback else ""
     pick_clears = _clear_occlusions_by("?subject") if occlusion else ""
@@ -314,7 +326,8 @@ def problem_pddl(
     for literal in goal:
         _check_literal(vocabulary, literal, "goal")
     if not options.occlusion_predicates:
-        init = [literal for literal in init if literal.name not in OCCLUSION_PREDICATES]
+        hidden = OCCLUSION_PREDICATES | CANNOT_PREDICATES
+        init = [literal for literal in init if literal.name not in hidden]
     problem_name = re.sub(r"[^A-Za-z0-9_-]", "-", name)
     if not problem_name or not problem_name[0].isalpha():
         problem_name = "problem-" + problem_name

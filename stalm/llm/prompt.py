@@ -23,7 +23,12 @@ from string import Template
 from stalm.domain.actions import DIRECTIONS
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.predicates.literals import OCCLUSION_PREDICATES, PREDICATE_NAMES, GroundLiteral
+from stalm.predicates.literals import (
+    CANNOT_PREDICATES,
+    OCCLUSION_PREDICATES,
+    PREDICATE_NAMES,
+    GroundLiteral,
+)
 
 #: PDDL type names the prompt gives to each kind of entity, in the order of ``(:objects ...)``
 #: in Figure 13: movable objects, then doors, then regions.
@@ -48,6 +53,10 @@ class PromptOptions:
 
     occlusion_predicates: bool = True
     ask_challenges: bool = True
+    cannot_actions: bool = False
+    """Beyond the paper (off for its rows, so their prompt stays Figure 13's): a section
+    after the problem listing the actions no motion can do in the state (the
+    ``CannotPick``/``CannotPlace`` literals, which the init never shows)."""
 
 
 @dataclass(frozen=True)
@@ -130,6 +139,13 @@ def format_goal(goal: Sequence[GroundLiteral]) -> str:
     return "".join(f"({' '.join((literal.name, *literal.args))}) " for literal in goal)
 
 
+def cannot_action(literal: GroundLiteral) -> str:
+    """``CannotPick(plate)`` as the action it rules out, in the reply's plan form:
+    ``pick(plate)``, ``place(coke, behind_of, beef_grill)``."""
+    operator = "pick" if literal.name == "CannotPick" else "place"
+    return f"{operator}({', '.join(literal.args)})"
+
+
 def _python_tuple(items: tuple[str, ...]) -> str:
     """A tuple of strings written as Python would, without a 1-tuple's trailing comma."""
     return "(" + ", ".join(repr(item) for item in items) + ")"
@@ -144,7 +160,7 @@ def _check_literals(vocabulary: Vocabulary, literals: Sequence[GroundLiteral], f
     """
     known = set(vocabulary.all_names) | set(DIRECTIONS)
     for literal in literals:
-        if literal.name not in PREDICATE_NAMES:
+        if literal.name not in PREDICATE_NAMES and literal.name not in CANNOT_PREDICATES:
             raise StalmError(f"{field}: unknown predicate {literal.name!r} in {literal}")
         unknown = [arg for arg in literal.args if arg not in known]
         if unknown:
@@ -161,11 +177,15 @@ def build_prompt(
 
     ``init`` is printed in the order given (the caller decides the order; Figure 13 lists
     HandAvailable, then AtPosition, then occlusions). With ``options.occlusion_predicates``
-    off, occlusion literals are dropped from it. Raises :class:`StalmError` for a literal with
+    off, occlusion literals are dropped from it; the actions that cannot be done
+    (``CannotPick``/``CannotPlace``) never show in it, but as a section of their own with
+    ``options.cannot_actions``. Raises :class:`StalmError` for a literal with
     an unknown predicate or name.
     """
     _check_literals(vocabulary, init, "init")
     _check_literals(vocabulary, goal, "goal")
+    cannot = [literal for literal in init if literal.name in CANNOT_PREDICATES]
+    init = [literal for literal in init if literal.name not in CANNOT_PREDICATES]
     if not options.occlusion_predicates:
         init = [literal for literal in init if literal.name not in OCCLUSION_PREDICATES]
     problem = _fill(
@@ -174,5 +194,8 @@ def build_prompt(
         init=format_init(init),
         goal=format_goal(goal),
     )
-    user = "\n\n".join([domain_text(options), problem, _template("request")])
+    parts = [domain_text(options), problem]
+    if options.cannot_actions and cannot:
+        parts.append(_fill("cannot", actions=", ".join(cannot_action(c) for c in cannot)))
+    user = "\n\n".join([*parts, _template("request")])
     return Prompt(system=system_message(options), user=user)

@@ -1,7 +1,13 @@
 """Geometric predicates of a State, computed with motion planning, with Appendix A's cache.
 
 Literals: HandAvailable, RobotHolding(o), IsClosed(door), AtPosition(o, dir, ref),
-PickOccludedBy(o, x) and PlaceOccludedBy(o, dir, ref, x).
+PickOccludedBy(o, x) and PlaceOccludedBy(o, dir, ref, x); and, beyond the paper, the actions
+no sampled motion can do whatever is moved: CannotPick(o) for a resting object, and
+CannotPlace(o, dir, ref) for the held one (an object at rest may still be picked with a grasp
+that makes the placement possible, so only the held object's grasp is final). The paper's
+prompt leaves these out (:mod:`stalm.predicates.literals`); before giving up on an action the
+samples are drawn on up to five times the operator's own tries
+(:class:`~stalm.predicates.samples.PredicateSettings`).
 
 Occlusion follows §3.2: the motion for an action is planned *ignoring movable objects* (base
 path to the standing pose, grasp or placement by the operator's sampler, IK, arm motion) and
@@ -18,6 +24,14 @@ actually taken); after OPEN nothing is swept (an open door stops being an obstac
 PLACE the moved object's own actions are resampled, and only motions that pass near its new
 pose are swept again, against it alone. :meth:`PredicateEngine.update` equals
 :meth:`PredicateEngine.compute` on the new state, literal for literal.
+
+A placement relative to a reference object counts only samples whose motion clears the
+reference itself: a sample drawn against the reference, or one whose held object or hand
+brushes it on the way down or back, would make the reference its own occluder
+(``PlaceOccludedBy(salter, left_of, bottle2, bottle2)``), a literal no plan can satisfy since
+moving the reference moves the place it names. Both causes were seen: P2's initial state had
+14 such literals, from 17 samples of which 6 overlapped the reference and 11 touched it only
+with the held object's or the hand's sweep (P5: 30 literals, 35 of 60 samples overlapping).
 
 Base paths start from the problem's initial robot pose, not the robot's current one, so the
 literals do not depend on where the robot last stood: the robot changes rooms only through an
@@ -36,18 +50,19 @@ never reads occlusion literals, so nothing else needs them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Protocol
 
 from stalm.geometry.directions import RELATIVE_DIRECTIONS
 from stalm.motion.base_motion import BasePlanner
+from stalm.motion.grasps import PITCH_RANGE, YAW_RANGE
 from stalm.motion.manipulation import PARKED
 from stalm.motion.sweeps import ArmSegment, ObjectAt, SweptMotion, sweep_near
+from stalm.predicates.cache import PredicateCache, forget_object, map_motions
 from stalm.predicates.deadline import Deadline, DeadlinePassed, check
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.samples import (
     MotionSamples,
-    PickRecord,
     PlacementSample,
     PredicateSettings,
 )
@@ -56,7 +71,7 @@ from stalm.world.problem import Problem
 from stalm.world.relations import direction_between
 from stalm.world.scene import Sim
 from stalm.world.spec import RegionSpec
-from stalm.world.state import Grasp, ObjectPose, State
+from stalm.world.state import ObjectPose, State
 
 
 class ActionTuple(Protocol):
@@ -67,21 +82,6 @@ class ActionTuple(Protocol):
     import (``pyproject.toml``'s import contract); every discrete action has ``as_tuple``."""
 
     def as_tuple(self) -> tuple[str, ...]: ...
-
-
-@dataclass
-class PredicateCache:
-    """Everything computed for one state; :meth:`PredicateEngine.update` derives the next."""
-
-    state: State
-    literals: frozenset[GroundLiteral]
-    base: dict[str, SweptMotion] = field(default_factory=dict)
-    picks: dict[str, PickRecord] = field(default_factory=dict)
-    placements: dict[tuple[str, str], tuple[PlacementSample, ...]] = field(default_factory=dict)
-    targeted: dict[tuple[str, str, str], tuple[PlacementSample, ...]] = field(default_factory=dict)
-    grasps: dict[str, tuple[Grasp, float]] = field(default_factory=dict)
-    unreachable: set[str] = field(default_factory=set)
-    swept_motions: int = 0
 
 
 class PredicateEngine:
@@ -100,6 +100,7 @@ class PredicateEngine:
         settings: PredicateSettings | None = None,
         *,
         occlusion: bool = True,
+        grasp_ranges: tuple[tuple[float, float], tuple[float, float]] = (PITCH_RANGE, YAW_RANGE),
     ) -> None:
         self.occlusion = occlusion
         self.problem = problem
@@ -107,7 +108,7 @@ class PredicateEngine:
         self.sim = sim
         self.base_planner = base_planner
         self.settings = settings or PredicateSettings()
-        self.samples = MotionSamples(self.spec, sim, base_planner, self.settings)
+        self.samples = MotionSamples(self.spec, sim, base_planner, self.settings, grasp_ranges)
         self._extent = self.samples.hands.extent
 
     # ------------------------------------------------------------------ public
@@ -174,12 +175,12 @@ class PredicateEngine:
         if operator == "pick":
             obj = arguments[0]
             new.picks.pop(obj, None)
-            self._forget_object(new, obj)
+            forget_object(new, obj)
             self._refresh_grasps(new)
             self._resample_placements_of(new, obj, deadline)
         elif operator == "place":
             obj = arguments[0]
-            self._forget_object(new, obj)
+            forget_object(new, obj)
             self._resweep_near(new, obj, state.pose(obj), deadline)
             check(deadline)
             new.picks[obj] = self.samples.pick_record(obj, state.pose(obj))
@@ -221,7 +222,7 @@ class PredicateEngine:
     ) -> tuple[PlacementSample, ...]:
         check(deadline)
         grasp, offset = cache.grasps[obj]
-        return self.samples.placements(obj, grasp, offset, region)
+        return self.samples.placements(obj, grasp, offset, region, persist=_held(cache, obj))
 
     def _targeted(
         self,
@@ -238,33 +239,18 @@ class PredicateEngine:
             check(deadline)
             grasp, offset = cache.grasps[obj]
             cache.targeted[key] = self.samples.targeted(
-                obj, grasp, offset, direction, ref, cache.state.pose(ref), region
+                obj,
+                grasp,
+                offset,
+                direction,
+                ref,
+                cache.state.pose(ref),
+                region,
+                persist=_held(cache, obj),
             )
         return cache.targeted[key]
 
     # ------------------------------------------------------------------ updates
-    def _forget_object(self, cache: PredicateCache, obj: str) -> None:
-        """Drop every collision with ``obj`` (it left its pose) and its own samples."""
-
-        def strip(motion: SweptMotion) -> SweptMotion:
-            return motion if obj not in motion.hits else replace(motion, hits=motion.hits - {obj})
-
-        cache.base = {k: strip(m) for k, m in cache.base.items()}
-        cache.picks = {
-            k: replace(r, motions=tuple(strip(m) for m in r.motions))
-            for k, r in cache.picks.items()
-        }
-        cache.placements = {
-            k: tuple(PlacementSample(s.pose, strip(s.motion)) for s in v)
-            for k, v in cache.placements.items()
-            if k[0] != obj
-        }
-        cache.targeted = {
-            k: tuple(PlacementSample(s.pose, strip(s.motion)) for s in v)
-            for k, v in cache.targeted.items()
-            if k[0] != obj
-        }
-
     def _resweep_near(
         self, cache: PredicateCache, obj: str, pose: ObjectPose, deadline: Deadline | None
     ) -> None:
@@ -284,19 +270,7 @@ class PredicateEngine:
             self.sim.place_object(obj, pose)
             return replace(motion, hits=motion.hits | {obj}) if hit else motion
 
-        cache.base = {k: again(m) for k, m in cache.base.items()}
-        cache.picks = {
-            k: replace(r, motions=tuple(again(m) for m in r.motions))
-            for k, r in cache.picks.items()
-        }
-        cache.placements = {
-            k: tuple(PlacementSample(s.pose, again(s.motion)) for s in v)
-            for k, v in cache.placements.items()
-        }
-        cache.targeted = {
-            k: tuple(PlacementSample(s.pose, again(s.motion)) for s in v)
-            for k, v in cache.targeted.items()
-        }
+        map_motions(cache, again)
 
     def _restore_subjects(self, state: State, motion: SweptMotion) -> None:
         """Put back the objects a sweep carried or placed (a pick's or placement's subject)."""
@@ -340,6 +314,7 @@ class PredicateEngine:
             best = _fewest((m.hits | base) & (obstacles - {obj}) for m in record.motions)
             if best is None:
                 cache.unreachable.add(f"pick {obj}")
+                literals.add(GroundLiteral("CannotPick", (obj,)))
                 continue
             literals.update(GroundLiteral("PickOccludedBy", (obj, x)) for x in best)
         for obj in cache.grasps:
@@ -353,10 +328,13 @@ class PredicateEngine:
                         continue
                     ref_pose = state.pose(ref)
                     for direction in RELATIVE_DIRECTIONS:
+                        # a motion touching the reference itself says nothing: moving the
+                        # reference away undoes the relation (see the module docstring)
                         matching = tuple(
                             s
                             for s in samples
                             if direction_between(region, s.pose, ref_pose) == direction
+                            and ref not in s.motion.hits
                         )
                         if not matching:
                             matching = self._targeted(cache, obj, direction, ref, region, deadline)
@@ -381,8 +359,14 @@ class PredicateEngine:
         best = _fewest((s.motion.hits | base) & (obstacles - {obj}) for s in samples)
         if best is None:
             cache.unreachable.add(f"place {obj} {direction} {ref}")
+            if _held(cache, obj):  # an object at rest may be picked with another grasp
+                literals.add(GroundLiteral("CannotPlace", (obj, direction, ref)))
             return
         literals.update(GroundLiteral("PlaceOccludedBy", (obj, direction, ref, x)) for x in best)
+
+
+def _held(cache: PredicateCache, obj: str) -> bool:
+    return cache.state.held is not None and cache.state.held.obj == obj
 
 
 def _fewest(sets: object) -> frozenset[str] | None:

@@ -18,6 +18,11 @@ PREDICATE_NAMES: tuple[str, ...] = (
     "PlaceOccludedBy",
 )
 OCCLUSION_PREDICATES: frozenset[str] = frozenset({"PickOccludedBy", "PlaceOccludedBy"})
+CANNOT_PREDICATES: frozenset[str] = frozenset({"CannotPick", "CannotPlace"})
+"""Beyond the paper's predicates: CannotPick(o), CannotPlace(o, dir, ref), actions no sampled
+motion can do in the state whatever is moved. They are literals of the state like the others;
+the paper's prompt (Figure 13) leaves them out and a prompt setting adds them as one line
+(:class:`~stalm.llm.prompt.PromptOptions`), the symbolic proposer's PDDL rules the actions out."""
 
 
 @dataclass(frozen=True, order=True)

@@ -34,19 +34,33 @@ from stalm.motion.grasps import (
 from stalm.motion.manipulation import Manipulator, placing_hand, route_segment
 from stalm.motion.sweeps import Segment, SweptMotion, sweep
 from stalm.world.relations import direction_between, supporting_region
-from stalm.world.scene import Sim
-from stalm.world.spec import ProblemSpec, RegionSpec
+from stalm.world.scene import PENETRATION_TOLERANCE, Sim
+from stalm.world.spec import ProblemSpec, RegionSpec, footprints_overlap
 from stalm.world.state import Grasp, ObjectPose
 
 
 @dataclass(frozen=True)
 class PredicateSettings:
-    """Sample counts per action; the authors checked 12 samples per predicate."""
+    """Sample counts per action; the authors checked 12 samples per predicate.
+
+    An action none of whose samples is statically feasible is reported as one that cannot be
+    done (``CannotPick``/``CannotPlace``), so before saying so the engine keeps drawing, up to
+    five times the operator's own tries (PICK's 30, PLACE's 40): an action the operator's
+    sampler can do in a few of its tries (P4's plate, picked by a few of PICK's 30 draws) is
+    then found, and one the engine gives up on is one the operator would almost never do."""
 
     pick_samples: int = 12
+    pick_draws_until_one: int = 150
+    """While no pick of an object is feasible, draw up to this many (5 x PICK's 30)."""
     placements_per_region: int = 8
     placement_draws: int = 24
+    placement_draws_until_one: int = 200
+    """While no placement of the held object on a region is feasible, draw up to this many
+    (5 x PLACE's 40)."""
     targeted_draws: int = 41
+    targeted_draws_until_one: int = 205
+    """While no placement of the held object beside a reference is feasible, draw up to this
+    many (5 x the 41 draws PLACE makes per try for a direction)."""
     targeted_samples: int = 1
     ik_attempts: int = 4
     seed: int = 0
@@ -90,8 +104,15 @@ class MotionSamples:
     """
 
     def __init__(
-        self, spec: ProblemSpec, sim: Sim, base_planner: BasePlanner, settings: PredicateSettings
+        self,
+        spec: ProblemSpec,
+        sim: Sim,
+        base_planner: BasePlanner,
+        settings: PredicateSettings,
+        grasp_ranges: tuple[tuple[float, float], tuple[float, float]] = (PITCH_RANGE, YAW_RANGE),
     ) -> None:
+        self.pitch_range, self.yaw_range = grasp_ranges
+        """PICK's gripper pitch and yaw ranges (the operator's own: its settings' ranges)."""
         self.spec = spec
         self.sim = sim
         self.base_planner = base_planner
@@ -134,8 +155,12 @@ class MotionSamples:
         motions: list[SweptMotion] = []
         grasp: Grasp | None = None
         object_pose = ((pose.x, pose.y, pose.z), yaw_quat(pose.yaw))
-        for _ in range(self.settings.pick_samples):
-            pitch, yaw = sample_grasp_angles(rng, PITCH_RANGE, YAW_RANGE)
+        draws = 0
+        while draws < self.settings.pick_samples or (
+            not motions and draws < self.settings.pick_draws_until_one
+        ):
+            draws += 1
+            pitch, yaw = sample_grasp_angles(rng, self.pitch_range, self.yaw_range)
             target = gripper_target(point, stand[2], pitch, yaw)
             arm = self.hands.pick(stand, target, rng, self.settings.ik_attempts)
             if arm is None:
@@ -152,13 +177,23 @@ class MotionSamples:
         return PickRecord(pose, region_name, grasp, wrap_angle(pose.yaw - stand[2]), tuple(motions))
 
     def placements(
-        self, obj: str, grasp: Grasp, offset: float, region: RegionSpec
+        self, obj: str, grasp: Grasp, offset: float, region: RegionSpec, *, persist: bool = False
     ) -> tuple[PlacementSample, ...]:
         """Up to ``placements_per_region`` placements of ``obj`` held at ``grasp`` on
-        ``region``, keeping the yaw ``offset`` from the standing pose."""
+        ``region``, keeping the yaw ``offset`` from the standing pose; with ``persist``, drawn
+        on while none is feasible (see :class:`PredicateSettings`)."""
         rng = np.random.default_rng(stable_seed(self.settings.seed, "place", obj, region.name))
-        wanted, draws = self.settings.placements_per_region, self.settings.placement_draws
-        return self._draw(obj, grasp, offset, region, rng, wanted, draws)
+        settings = self.settings
+        draws = settings.placement_draws_until_one if persist else settings.placement_draws
+        return self._draw(
+            obj,
+            grasp,
+            offset,
+            region,
+            rng,
+            settings.placements_per_region,
+            (settings.placement_draws, draws),
+        )
 
     def targeted(
         self,
@@ -169,22 +204,39 @@ class MotionSamples:
         ref: str,
         ref_pose: ObjectPose,
         region: RegionSpec,
+        *,
+        persist: bool = False,
     ) -> tuple[PlacementSample, ...]:
         """Placements drawn until ``targeted_samples`` lie in ``direction`` of ``ref`` (at
-        ``ref_pose`` on ``region``): for a relative position no plain placement landed in."""
-        rng = np.random.default_rng(
-            stable_seed(self.settings.seed, "target", obj, direction, ref)
-        )
-        wanted, draws = self.settings.targeted_samples, self.settings.targeted_draws
+        ``ref_pose`` on ``region``) with motions that do not touch ``ref``: for a relative
+        position no plain placement landed in."""
+        rng = np.random.default_rng(stable_seed(self.settings.seed, "target", obj, direction, ref))
+        settings = self.settings
+        draws = settings.targeted_draws_until_one if persist else settings.targeted_draws
         return self._draw(
             obj,
             grasp,
             offset,
             region,
             rng,
-            wanted,
-            draws,
-            lambda pose: direction_between(region, pose, ref_pose) == direction,
+            settings.targeted_samples,
+            (settings.targeted_draws, draws),
+            lambda pose: (
+                direction_between(region, pose, ref_pose) == direction
+                and not self._overlaps(obj, pose, ref, ref_pose)
+            ),
+            clear_of=ref,
+        )
+
+    def _overlaps(self, obj: str, pose: ObjectPose, other: str, other_pose: ObjectPose) -> bool:
+        """Would ``obj`` at ``pose`` stand in ``other`` at ``other_pose``? (A sample that does
+        is no place beside ``other``; caught here before IK and the sweep are paid for.)"""
+        return footprints_overlap(
+            self.spec.object(obj),
+            (pose.x, pose.y, pose.yaw),
+            self.spec.object(other),
+            (other_pose.x, other_pose.y, other_pose.yaw),
+            slack=PENETRATION_TOLERANCE,
         )
 
     def _draw(
@@ -195,16 +247,18 @@ class MotionSamples:
         region: RegionSpec,
         rng: np.random.Generator,
         wanted: int,
-        draws: int,
+        draws: tuple[int, int],
         keep: Callable[[ObjectPose], bool] = lambda pose: True,
+        clear_of: str | None = None,
     ) -> tuple[PlacementSample, ...]:
-        """Up to ``draws`` uniform placements, the ones ``keep`` accepts planned, until
-        ``wanted`` have feasible motions (or the object does not fit the region)."""
+        """Uniform placements, the ones ``keep`` accepts planned, until ``wanted`` have
+        feasible motions (not touching ``clear_of``, if named), the object does not fit the
+        region, or ``draws`` = (n, m) are spent: n draws, or m while none is feasible."""
         yaw = wrap_angle(region.base_pose[2] + offset)
         spec = self.spec.object(obj)
         samples: list[PlacementSample] = []
-        for _ in range(draws):
-            if len(samples) >= wanted:
+        for drawn in range(max(draws)):
+            if len(samples) >= wanted or (samples and drawn >= draws[0]):
                 break
             pose = draw_placement(spec, region, yaw, rng)
             if pose is None:
@@ -212,7 +266,7 @@ class MotionSamples:
             if not keep(pose):
                 continue
             sample = self._placement_motion(obj, grasp, region, pose, rng)
-            if sample is not None:
+            if sample is not None and clear_of not in sample.motion.hits:
                 samples.append(sample)
         return tuple(samples)
 

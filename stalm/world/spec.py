@@ -245,9 +245,17 @@ class ProblemSpec(_Spec):
             if abs(obj.at[0]) + reach[0] > ux / 2 + 1e-6 or abs(obj.at[1]) + reach[1] > (
                 uy / 2 + 1e-6
             ):
+                handles = (
+                    f", handles included ({GRILL_HANDLE_REACH:g} m each side)"
+                    if obj.shape == "grill"
+                    else ""
+                )
                 raise ValueError(
                     f"objects[{index}].at: {obj.at} puts '{obj.name}' outside the usable area "
-                    f"{region.usable_size} of '{obj.on}'"
+                    f"{region.usable_size} of '{obj.on}': its footprint is "
+                    f"{2 * reach[0]:.3g} x {2 * reach[1]:.3g} m in the region's frame{handles}, so "
+                    f"its centre may be at most ({max(0.0, ux / 2 - reach[0]):.3g}, "
+                    f"{max(0.0, uy / 2 - reach[1]):.3g}) from the area's centre"
                 )
         self._check_overlaps()
         for index, goal in enumerate(self.goal):
@@ -323,14 +331,16 @@ _OVERLAP_SLACK = 1e-6
 """Footprints may touch; they overlap when they share more than this (m)."""
 
 
-def _footprint(obj: ObjectSpec) -> tuple[float, float, float, float, float | None]:
-    """(u, v, yaw, half x, half y) of a grill's rectangle, or (u, v, 0, r, None) of a circle,
-    in the frame of the region the object stands on."""
+def _footprint(
+    obj: ObjectSpec, x: float, y: float, yaw: float
+) -> tuple[float, float, float, float, float | None]:
+    """(x, y, yaw, half x, half y) of a grill's rectangle, or (x, y, 0, r, None) of a circle,
+    for the object standing at (x, y) with ``yaw`` (in any one planar frame)."""
     if obj.shape == "grill":
         hx, hy, _ = obj.half_extents
-        return (obj.at[0], obj.at[1], obj.yaw, hx, hy)
+        return (x, y, yaw, hx, hy)
     assert obj.radius is not None
-    return (obj.at[0], obj.at[1], 0.0, obj.radius, None)
+    return (x, y, 0.0, obj.radius, None)
 
 
 def _corners(u: float, v: float, yaw: float, hx: float, hy: float) -> list[tuple[float, float]]:
@@ -342,11 +352,23 @@ def _corners(u: float, v: float, yaw: float, hx: float, hy: float) -> list[tuple
 
 
 def _footprints_overlap(a: ObjectSpec, b: ObjectSpec) -> bool:
-    """Do the 2D footprints of two objects on one region overlap?"""
-    ua, va, ya, ra, ha = _footprint(a)
-    ub, vb, yb, rb, hb = _footprint(b)
+    """Do the 2D footprints of two objects on one region, at their start, overlap?"""
+    return footprints_overlap(a, (*a.at, a.yaw), b, (*b.at, b.yaw))
+
+
+def footprints_overlap(
+    a: ObjectSpec,
+    at_a: tuple[float, float, float],
+    b: ObjectSpec,
+    at_b: tuple[float, float, float],
+    slack: float = _OVERLAP_SLACK,
+) -> bool:
+    """Do the 2D footprints of ``a`` at (x, y, yaw) ``at_a`` and ``b`` at ``at_b`` (one planar
+    frame) share more than ``slack`` metres?"""
+    ua, va, ya, ra, ha = _footprint(a, *at_a)
+    ub, vb, yb, rb, hb = _footprint(b, *at_b)
     if ha is None and hb is None:
-        return math.dist((ua, va), (ub, vb)) < ra + rb - _OVERLAP_SLACK
+        return math.dist((ua, va), (ub, vb)) < ra + rb - slack
     if ha is None or hb is None:  # a rectangle and a circle
         (cu, cv, cr), (u, v, yaw, hx, hy) = (
             ((ua, va, ra), (ub, vb, yb, rb, hb))
@@ -358,14 +380,14 @@ def _footprints_overlap(a: ObjectSpec, b: ObjectSpec) -> bool:
         du, dv = cu - u, cv - v
         lu, lv = c * du + s * dv, -s * du + c * dv  # circle centre in the rectangle's frame
         nearest = (max(-hx, min(hx, lu)), max(-hy, min(hy, lv)))
-        return math.dist((lu, lv), nearest) < cr - _OVERLAP_SLACK
+        return math.dist((lu, lv), nearest) < cr - slack
     assert ha is not None and hb is not None
     first, second = _corners(ua, va, ya, ra, ha), _corners(ub, vb, yb, rb, hb)
     for yaw in (ya, ya + math.pi / 2, yb, yb + math.pi / 2):  # separating axis theorem
         axis = (math.cos(yaw), math.sin(yaw))
         pa = [x * axis[0] + y * axis[1] for x, y in first]
         pb = [x * axis[0] + y * axis[1] for x, y in second]
-        if min(pa) >= max(pb) - _OVERLAP_SLACK or min(pb) >= max(pa) - _OVERLAP_SLACK:
+        if min(pa) >= max(pb) - slack or min(pb) >= max(pa) - slack:
             return False
     return True
 

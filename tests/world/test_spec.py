@@ -72,7 +72,7 @@ def _p2_data(problems: dict[str, Problem]) -> dict[str, object]:
         ),
         (
             lambda d: d["objects"][0].update(at=[3.0, 0.0]),
-            r"objects\[0\]\.at: .*outside the usable area",
+            r"objects\[0\]\.at: .*outside the usable area .*its footprint is 0.066 x 0.066 m",
         ),
         (
             lambda d: d["objects"][0].update(colour=[1, 0, 0, 1]),
