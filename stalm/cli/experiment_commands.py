@@ -47,8 +47,10 @@ def experiment_command(
     planners: Annotated[
         str | None,
         typer.Option(
-            help="Comma-separated rows: planner names (see `stalm planners`) or stalm-symbolic "
-            "(STaLM with the Fast Downward proposer). Default: the paper's rows."
+            help="Comma-separated rows: the paper's methods by planner name (see `stalm "
+            "planners`), run as the authors ran them; NAME+ (uct+, uct-hcount+, stalm+, ...) for "
+            "the same with this implementation's additions; stalm-symbolic (STaLM with the "
+            "Fast Downward proposer). Default: the paper's rows."
         ),
     ] = None,
     trials: Annotated[int, typer.Option(help="Trials per problem and planner.")] = 50,

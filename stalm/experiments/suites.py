@@ -27,14 +27,44 @@ TABLE2_PLANNERS = (
     "llm-mcts",
     "stalm",
 )
+AUTHORS_SETTINGS: dict[str, object] = {
+    "execution.reuse_tree": True,
+    "execution.rule": "best_q",
+    "rewards.goal_atom_lost": 0.0,
+    "execution.kappa_tries": 3,
+    "execution.feedback": False,
+    "execution.backtracks": 0,
+}
+"""How the authors' code ran every method, which made the paper's numbers
+(``research/original_repo.md``): the executed child's subtree kept between steps, the
+highest-Q root action executed, no reward taken back when an action undoes a goal conjunct,
+κ drawn up to 3 times per task-plan step, no geometric feedback and no backtracking in
+Concretize. The rows named after the paper's methods run with these; this implementation's
+additions (the tree's defaults: the 'progress' rule, -3 for an undone conjunct, feedback and
+backtracking with the symbolic proposer) get rows of their own, named with a ``+``."""
+PAPER_ROWS = (
+    "stalm",
+    "stalm-no-uct",
+    "uct",
+    "uct-hcount",
+    "ep-saycan",
+    "iterative-replanning",
+    "llm-mcts",
+)
+"""The rows of the paper's Tables 2 and 3, each run as the authors ran it."""
+PLUS_ROWS = ("stalm", "stalm-no-uct", "uct", "uct-hcount", "llm-mcts")
+"""Methods whose ``NAME+`` row runs them with this implementation's additions."""
 ARM_ALIASES: dict[str, tuple[str, dict[str, object]]] = {
+    **{name: (name, AUTHORS_SETTINGS) for name in PAPER_ROWS},
+    **{f"{name}+": (name, {}) for name in PLUS_ROWS},
     "stalm-symbolic": ("stalm", {"proposer.kind": "symbolic"}),
     "stalm-feedback": ("stalm", {"execution.feedback": True}),
 }
-"""Row names that are a planner with other settings: STaLM with the Fast Downward proposer
-(no model at all; geometric feedback on), and STaLM with a model and geometric feedback
-(beyond the paper; the paper's ``stalm`` row has none). An arm's own settings override the
-command's (``--settings``, ``--set``)."""
+"""Row names and the planner and settings each runs: the paper's rows with
+:data:`AUTHORS_SETTINGS`, their ``+`` rows with the tree's defaults (what ``stalm solve``
+runs), STaLM with the Fast Downward proposer (no model at all; geometric feedback on, and the
+other additions), and STaLM with a model and geometric feedback (beyond the paper). An arm's
+own settings override the command's (``--settings``, ``--set``)."""
 PAPER_TRIALS = 50
 ALL_PROBLEMS = ("P1", "P2", "P3", "P4", "P5", "P6")
 

@@ -108,37 +108,39 @@ def test_an_unknown_problem_is_named() -> None:
 
 
 # Keys computed before the settings tree existed (PlannerConfig, commit 9fe03af): the same
-# trials must keep them, or a results log written then would not resume.
+# trials must keep them, or a results log written then would not resume. The rows named after
+# the paper's methods run the authors' settings since issue 26 (other trials, other keys).
 KEYS_BEFORE_THE_SETTINGS_TREE = {
-    ("table2", "uct", "P1"): "548150b85c9d44e75c71",
     ("table2", "stalm-symbolic", "P3"): "6f646db14a373d4f548d",
     ("table2", "stalm-feedback", "P1"): "3d7aa634d568e12de79b",
-    ("table2", "llm-mcts", "P3"): "b62ba265a9f93b3e6657",
-    ("table4", "stalm no occlusion, challenges", "P1"): "5ece556416d3a9b8c27e",
-    ("table3", "stalm-no-uct [ollama:llama3.1]", "P3"): "78635e6386d091743eb2",
 }
 
 
 def test_trial_keys_of_default_settings_are_those_of_before_the_settings_tree() -> None:
-    plans = {
-        "table2": build_plan(
-            "table2",
-            planners=("uct", "stalm-symbolic", "stalm-feedback", "llm-mcts"),
-            problems=("P1", "P3"),
-            trials=1,
-        ),
-        "table4": build_plan("table4", problems=("P1", "P3"), trials=1),
-        "table3": build_plan(
-            "table3", llms=("embedded", "ollama:llama3.1"), problems=("P1", "P3"), trials=1
-        ),
-    }
-    keys = {
-        (name, spec.arm.label, spec.problem): spec.key
-        for name, plan in plans.items()
-        for spec in trial_specs(plan)
-    }
+    plan = build_plan(
+        "table2", planners=("stalm-symbolic", "stalm-feedback"), problems=("P1", "P3"), trials=1
+    )
+    keys = {("table2", spec.arm.label, spec.problem): spec.key for spec in trial_specs(plan)}
     for cell, key in KEYS_BEFORE_THE_SETTINGS_TREE.items():
         assert keys[cell] == key, cell
+
+
+def test_the_paper_rows_run_the_authors_settings_and_plus_rows_the_defaults() -> None:
+    from stalm.experiments.suites import AUTHORS_SETTINGS, PAPER_ROWS, PLUS_ROWS
+    from stalm.planners.settings_io import changed
+
+    rows = (*PAPER_ROWS, *(f"{name}+" for name in PLUS_ROWS))
+    arms = {arm.label: arm for arm in build_plan("table2", planners=rows, trials=1).arms}
+    for name in PAPER_ROWS:
+        assert arms[name].planner == name
+        config = arms[name].config
+        for key, value in AUTHORS_SETTINGS.items():
+            section, field = key.split(".")
+            assert getattr(getattr(config, section), field) == value, (name, key)
+    for name in PLUS_ROWS:
+        assert arms[f"{name}+"].planner == name and changed(arms[f"{name}+"].config) == {}
+    table3 = build_plan("table3", llms=("embedded",), trials=1).arms
+    assert all(changed(arm.config)["execution.rule"] == "best_q" for arm in table3)
 
 
 def test_the_issue13_results_logs_still_resume() -> None:
@@ -171,10 +173,15 @@ def test_the_issue13_results_logs_still_resume() -> None:
         ),
         ("before.jsonl", {"problems": ("P3", "P5", "P6"), "trials": 2}, everything_off),
     ]
+    unchanged = ("P1", "P2", "P3", "P4")  # P5 and P6 were rebuilt since (issue 26's grill trap)
     for name, options, overrides in runs:
         base = with_overrides(RunSettings(), overrides)
-        plan = build_plan("table2", planners=("stalm-symbolic",), base=base, **options)
-        logged = {json.loads(line)["key"] for line in (folder / name).read_text().splitlines()}
+        problems = tuple(p for p in options.pop("problems", unchanged) if p in unchanged)
+        plan = build_plan(
+            "table2", planners=("stalm-symbolic",), base=base, problems=problems, **options
+        )
+        records = [json.loads(line) for line in (folder / name).read_text().splitlines()]
+        logged = {r["key"] for r in records if r["problem"] in unchanged}
         assert {spec.key for spec in trial_specs(plan)} == logged, name
 
 
