@@ -45,9 +45,7 @@ def golden() -> dict:
     return read(GOLDEN)
 
 
-@pytest.mark.parametrize(
-    "name", [pytest.param(n, marks=_slow_unless_p2(n)) for n in PROBLEM_NAMES]
-)
+@pytest.mark.parametrize("name", [pytest.param(n, marks=_slow_unless_p2(n)) for n in PROBLEM_NAMES])
 def test_predicates_and_draws_hold_under_nudged_floats(
     golden: dict, problems: dict[str, Problem], name: str
 ) -> None:

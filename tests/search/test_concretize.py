@@ -121,12 +121,12 @@ P5_GRILL_LAST = (
 def test_backtracking_draws_again_the_placement_of_a_can_that_blocks_the_grill(
     domain_factory,
 ) -> None:
-    """P5 with the grill last: with seed 0 one draw per step leaves a can at the front of
+    """P5 with the grill last: with seed 2 one draw per step leaves a can at the front of
     counter1 and the grill finds no room; drawing the cans' placements again solves it."""
     domain = domain_factory("P5")
     root = domain.problem.initial_state
     plain = concretize(
-        domain, root, [TaskPlan(P5_GRILL_LAST)], np.random.default_rng(0), kappa_tries=3
+        domain, root, [TaskPlan(P5_GRILL_LAST)], np.random.default_rng(2), kappa_tries=3
     )
     failed = plain.plans[0]
     assert not plain.success and failed.failed_step == 8
@@ -135,7 +135,7 @@ def test_backtracking_draws_again_the_placement_of_a_can_that_blocks_the_grill(
         domain,
         root,
         [TaskPlan(P5_GRILL_LAST)],
-        np.random.default_rng(0),
+        np.random.default_rng(2),
         kappa_tries=3,
         backtracks=6,
     )
