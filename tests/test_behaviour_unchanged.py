@@ -22,9 +22,11 @@ Where results stop being bit-identical across CPUs (measured on an AVX-512 Xeon 
 machine these files were first made on, and on one machine with glibc's CPU dispatch turned
 down by ``GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F``):
 
-* **IK**: PyBullet's damped least squares returns solutions that differ by ~1e-11 rad
-  (7e-12 was seen in an arm waypoint), from the order and fusing of its floating-point
-  operations;
+* **IK**: PyBullet's damped least squares, which stalm ran until the compiled solver of
+  :mod:`stalm.motion.panda` replaced it, returned solutions that differed by ~1e-11 rad (7e-12
+  was seen in an arm waypoint), from the order and fusing of its floating-point operations;
+  the compiled solver is built by numba for the CPU it runs on, so the same can happen to it
+  (not yet measured on a second kind of CPU: the nudges below stand in for it);
 * **trigonometry**: glibc picks ``sin``, ``cos`` and ``atan2`` by CPU features (with FMA or
   without), so yaw quaternions, planar transforms and everything computed from them differ in
   the last bit; the tunables above change this file's values at the 1e-9 digit;

@@ -61,7 +61,9 @@ class Domain:
 
     def __post_init__(self) -> None:
         self.vocabulary = Vocabulary.from_problem(self.problem)
-        self.base_planner = BasePlanner(self.sim, self.roadmap_settings)
+        self.base_planner = BasePlanner(
+            self.sim, self.roadmap_settings, engine=self.sampler_settings.engine
+        )
         self.samplers = Samplers(self.sim, self.base_planner, self.sampler_settings)
         self._all_actions = self.vocabulary.all_discrete_actions()
 

@@ -17,9 +17,11 @@ import numpy as np
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import OpenParams, PickParams, PlaceParams
+from stalm.errors import StalmError
 from stalm.geometry.transforms import Pose3, compose, invert, wrap_angle
-from stalm.motion.arm_motion import first_collision, interpolate_waypoints
+from stalm.motion.arm_motion import interpolate_waypoints
 from stalm.motion.base_motion import BasePath, BasePlanner
+from stalm.motion.colliders import ENGINES, Engine
 from stalm.motion.grasps import (
     PITCH_RANGE,
     YAW_RANGE,
@@ -28,7 +30,7 @@ from stalm.motion.grasps import (
     nearest_grasp_point,
     sample_grasp_angles,
 )
-from stalm.motion.manipulation import Manipulator, handle_target, placing_hand
+from stalm.motion.manipulation import ArmMotion, Manipulator, handle_target, placing_hand
 from stalm.world import robot as robot_model
 from stalm.world.relations import direction_between, supporting_region
 from stalm.world.scene import Sim
@@ -49,6 +51,16 @@ class SamplerSettings:
     pitch_range: tuple[float, float] = PITCH_RANGE
     yaw_range: tuple[float, float] = YAW_RANGE
     ik_attempts: int = 4
+    engine: Engine = "batched"
+    """How ψ's motions are checked: 'batched' (compiled candidate tests, each candidate
+    confirmed by PyBullet) or 'pybullet' (every configuration queried; the reference). Both
+    find the same contacts (:mod:`stalm.motion.colliders`)."""
+
+    def __post_init__(self) -> None:
+        if self.engine not in ENGINES:
+            raise StalmError(
+                f"setting samplers.engine must be one of {', '.join(ENGINES)}, got {self.engine!r}"
+            )
 
 
 class Failures:
@@ -79,7 +91,7 @@ class Samplers:
         self.problem = sim.problem
         self.base = base_planner
         self.settings = settings
-        self.hands = Manipulator(sim)
+        self.hands = Manipulator(sim, settings.engine)
 
     # ------------------------------------------------------------------ shared
     def names(self, bodies: set[int]) -> set[str]:
@@ -109,7 +121,7 @@ class Samplers:
         waypoints: tuple[tuple[float, ...], ...],
         ignore: set[int],
     ) -> set[int]:
-        return first_collision(self.sim, base, interpolate_waypoints(waypoints), ignore)
+        return self.hands.collider.arm_first_touch(base, interpolate_waypoints(waypoints), ignore)
 
     # ------------------------------------------------------------------ PICK
     def pick(
@@ -126,7 +138,6 @@ class Samplers:
         if isinstance(path, Infeasibility):
             return path
         point = nearest_grasp_point(obj, pose, stand)
-        body = self.sim.bodies.objects[action.obj]
         failures = Failures()
         for _ in range(self.settings.pick_tries):
             pitch, yaw = sample_grasp_angles(
@@ -135,34 +146,45 @@ class Samplers:
             target = gripper_target(point, stand[2], pitch, yaw)
             self.sim.set_state(state)
             self.sim.set_base_only(stand)
-            motion = self.hands.pick(stand, target, rng, self.settings.ik_attempts)
-            if motion is None:
+            reached = False
+            for motion in self.hands.picks(stand, target, rng, self.settings.ik_attempts):
+                reached = True
+                picked = self._pick_motion(state, action, motion, failures)
+                if picked is not None:
+                    return PickParams(
+                        base_path=path,
+                        pitch=pitch,
+                        yaw=yaw,
+                        grasp=picked,
+                        grasp_conf=motion.key_conf,
+                        arm_waypoints=motion.waypoints,
+                    )
+            if not reached:
                 failures.add("no_ik", f"no IK solution to grasp '{action.obj}'")
-                continue
-            hits = self.arm_motion_free(stand, motion.into, {body})
-            if hits:
-                failures.add(
-                    "arm_collision", f"reaching for '{action.obj}' collides", self.names(hits)
-                )
-                continue
-            self.sim.set_arm(stand, motion.key_conf[0], motion.key_conf[1:])
-            grasp_pose = compose(invert(self.sim.gripper_pose()), self.sim.object_pose(action.obj))
-            grasp = Grasp.make(action.obj, grasp_pose[0], grasp_pose[1])
-            self.sim.attach(grasp)
-            hits = self.arm_motion_free(stand, motion.out, set())
-            self.sim.attach(None)
-            if hits:
-                failures.add("arm_collision", f"lifting '{action.obj}' collides", self.names(hits))
-                continue
-            return PickParams(
-                base_path=path,
-                pitch=pitch,
-                yaw=yaw,
-                grasp=grasp,
-                grasp_conf=motion.key_conf,
-                arm_waypoints=motion.waypoints,
-            )
         return failures.result(f"no grasp of '{action.obj}' found")
+
+    def _pick_motion(
+        self, state: State, action: Pick, motion: ArmMotion, failures: Failures
+    ) -> Grasp | None:
+        """The grasp a collision-free pick ``motion`` takes (None, with the failure noted, if
+        it collides), checked in the world of ``state`` with the base at the standing pose."""
+        stand = motion.stand
+        self.sim.set_state(state)  # a motion checked before may have moved the object
+        self.sim.set_base_only(stand)
+        hits = self.arm_motion_free(stand, motion.into, {self.sim.bodies.objects[action.obj]})
+        if hits:
+            failures.add("arm_collision", f"reaching for '{action.obj}' collides", self.names(hits))
+            return None
+        self.sim.set_arm(stand, motion.key_conf[0], motion.key_conf[1:])
+        grasp_pose = compose(invert(self.sim.gripper_pose()), self.sim.object_pose(action.obj))
+        grasp = Grasp.make(action.obj, grasp_pose[0], grasp_pose[1])
+        self.sim.attach(grasp)
+        hits = self.arm_motion_free(stand, motion.out, set())
+        self.sim.attach(None)
+        if hits:
+            failures.add("arm_collision", f"lifting '{action.obj}' collides", self.names(hits))
+            return None
+        return grasp
 
     # ------------------------------------------------------------------ PLACE
     def target_region(self, state: State, action: Place) -> RegionSpec | Infeasibility:
@@ -226,32 +248,50 @@ class Samplers:
                     self.names(hits),
                 )
                 continue
-            motion = self.hands.place(
-                stand, placing_hand(placement, state.held), rng, self.settings.ik_attempts
-            )
-            if motion is None:
+            hand = placing_hand(placement, state.held)
+            reached = False
+            for motion in self.hands.places(stand, hand, rng, self.settings.ik_attempts):
+                reached = True
+                if self._place_motion_free(state, action, placement, motion, failures):
+                    return PlaceParams(
+                        base_path=path,
+                        placement=placement,
+                        place_conf=motion.key_conf,
+                        arm_waypoints=motion.waypoints,
+                    )
+            if not reached:
                 failures.add("no_ik", f"no IK solution to place '{action.obj}' on '{region.name}'")
-                continue
-            self.sim.attach(state.held, state.held_yaw_offset)
-            hits = self.arm_motion_free(stand, motion.into, set())
-            if hits:
-                failures.add("arm_collision", f"placing '{action.obj}' collides", self.names(hits))
-                continue
-            self.sim.attach(None)
-            self.sim.place_object(action.obj, placement)
-            hits = self.arm_motion_free(stand, motion.out, {body})
-            if hits:
-                failures.add(
-                    "arm_collision", f"retreating from '{action.obj}' collides", self.names(hits)
-                )
-                continue
-            return PlaceParams(
-                base_path=path,
-                placement=placement,
-                place_conf=motion.key_conf,
-                arm_waypoints=motion.waypoints,
-            )
         return failures.result(f"no placement of '{action.obj}' found")
+
+    def _place_motion_free(
+        self,
+        state: State,
+        action: Place,
+        placement: ObjectPose,
+        motion: ArmMotion,
+        failures: Failures,
+    ) -> bool:
+        """Is the placement ``motion`` collision-free (the failure noted if not)? Checked in
+        the world of ``state`` with the base at the standing pose."""
+        assert state.held is not None
+        stand = motion.stand
+        self.sim.set_state(state)  # a motion checked before may have moved the object
+        self.sim.set_base_only(stand)
+        self.sim.attach(state.held, state.held_yaw_offset)
+        hits = self.arm_motion_free(stand, motion.into, set())
+        if hits:
+            failures.add("arm_collision", f"placing '{action.obj}' collides", self.names(hits))
+            return False
+        self.sim.attach(None)
+        self.sim.place_object(action.obj, placement)
+        body = self.sim.bodies.objects[action.obj]
+        hits = self.arm_motion_free(stand, motion.out, {body})
+        if hits:
+            failures.add(
+                "arm_collision", f"retreating from '{action.obj}' collides", self.names(hits)
+            )
+            return False
+        return True
 
     # ------------------------------------------------------------------ OPEN
     def handle_target(self, door_name: str, stand: tuple[float, float, float]) -> Pose3:

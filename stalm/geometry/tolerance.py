@@ -1,11 +1,12 @@
 """Comparing results across machines: discrete parts exactly, continuous values to a tolerance.
 
 The same seed gives the same result bit for bit on one machine. On another machine the last
-bits of continuous values may differ: PyBullet's IK iterates in floating point whose rounding
-depends on the compiler's and the CPU's choice of instructions (fused multiply-add, vector
-widths), and glibc picks its ``sin``/``cos``/``atan2`` implementation by CPU features. Such
-differences are of the order of 1e-12; they stay far below :data:`CONTINUOUS_TOLERANCE`, but a
-hash of the values (or a value rounded to a grid, where it sits next to a grid line) flips.
+bits of continuous values may differ: IK iterates in floating point whose rounding depends on
+the compiler's and the CPU's choice of instructions (numba compiles it for the local CPU:
+fused multiply-add, vector widths), and glibc picks its ``sin``/``cos``/``atan2``
+implementation by CPU features. Such differences are of the order of 1e-12; they stay far
+below :data:`CONTINUOUS_TOLERANCE`, but a hash of the values (or a value rounded to a grid,
+where it sits next to a grid line) flips.
 
 So results are compared as JSON-like trees: strings, integers, booleans, ``None``, keys and
 lengths exactly; floats within an absolute tolerance. :data:`CONTINUOUS_TOLERANCE` is two

@@ -34,7 +34,12 @@ from stalm.domain.actions import DIRECTIONS
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
 from stalm.llm.prompt import DOOR_TYPE, MOVABLE_TYPE, REGION_TYPE, PromptOptions
-from stalm.predicates.literals import CANNOT_PREDICATES, OCCLUSION_PREDICATES, GroundLiteral
+from stalm.predicates.literals import (
+    CANNOT_PREDICATES,
+    OCCLUSION_PREDICATES,
+    SCOPE_PREDICATE,
+    GroundLiteral,
+)
 
 DOMAIN_NAME = "shop"
 #: Supertype of everything ``place`` can put an object relative to: regions and movables.
@@ -317,6 +322,7 @@ def problem_pddl(
     predicates, wrong arity or unknown names.
     """
     _check_names(vocabulary)
+    init = [literal for literal in init if literal.name != SCOPE_PREDICATE]  # no PDDL fact
     for literal in init:
         _check_literal(vocabulary, literal, "init", feedback)
         if literal.name in FAILURE_PREDICATES and literal.args[0] not in {

@@ -27,8 +27,14 @@ from stalm.predicates.literals import (
     CANNOT_PREDICATES,
     OCCLUSION_PREDICATES,
     PREDICATE_NAMES,
+    SCOPE_PREDICATE,
     GroundLiteral,
 )
+
+SHOWN_APART: frozenset[str] = CANNOT_PREDICATES | {SCOPE_PREDICATE}
+"""Literals the init never lists: the actions that cannot be done (a section behind
+``PromptOptions.cannot_actions``) and the objects relevance-limited predicates covered (a
+section whenever they are stated)."""
 
 #: PDDL type names the prompt gives to each kind of entity, in the order of ``(:objects ...)``
 #: in Figure 13: movable objects, then doors, then regions.
@@ -160,7 +166,7 @@ def _check_literals(vocabulary: Vocabulary, literals: Sequence[GroundLiteral], f
     """
     known = set(vocabulary.all_names) | set(DIRECTIONS)
     for literal in literals:
-        if literal.name not in PREDICATE_NAMES and literal.name not in CANNOT_PREDICATES:
+        if literal.name not in PREDICATE_NAMES and literal.name not in SHOWN_APART:
             raise StalmError(f"{field}: unknown predicate {literal.name!r} in {literal}")
         unknown = [arg for arg in literal.args if arg not in known]
         if unknown:
@@ -179,13 +185,15 @@ def build_prompt(
     HandAvailable, then AtPosition, then occlusions). With ``options.occlusion_predicates``
     off, occlusion literals are dropped from it; the actions that cannot be done
     (``CannotPick``/``CannotPlace``) never show in it, but as a section of their own with
-    ``options.cannot_actions``. Raises :class:`StalmError` for a literal with
-    an unknown predicate or name.
+    ``options.cannot_actions``; nor do the objects relevance-limited predicates covered
+    (``OcclusionComputed``), which get a section whenever occlusion is shown. Raises
+    :class:`StalmError` for a literal with an unknown predicate or name.
     """
     _check_literals(vocabulary, init, "init")
     _check_literals(vocabulary, goal, "goal")
     cannot = [literal for literal in init if literal.name in CANNOT_PREDICATES]
-    init = [literal for literal in init if literal.name not in CANNOT_PREDICATES]
+    scope = sorted(literal.args[0] for literal in init if literal.name == SCOPE_PREDICATE)
+    init = [literal for literal in init if literal.name not in SHOWN_APART]
     if not options.occlusion_predicates:
         init = [literal for literal in init if literal.name not in OCCLUSION_PREDICATES]
     problem = _fill(
@@ -197,5 +205,7 @@ def build_prompt(
     parts = [domain_text(options), problem]
     if options.cannot_actions and cannot:
         parts.append(_fill("cannot", actions=", ".join(cannot_action(c) for c in cannot)))
+    if scope and options.occlusion_predicates:
+        parts.append(_fill("scope", objects=", ".join(scope)))
     user = "\n\n".join([*parts, _template("request")])
     return Prompt(system=system_message(options), user=user)

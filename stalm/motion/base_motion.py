@@ -14,6 +14,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from stalm.geometry.transforms import wrap_angle
+from stalm.motion.colliders import Collider, make_collider
 from stalm.motion.roadmap import Roadmap, RoadmapSettings, load_or_build_roadmap
 from stalm.world.scene import Sim
 
@@ -75,7 +76,16 @@ class BasePlanner:
     sim: Sim
     settings: RoadmapSettings = field(default_factory=RoadmapSettings)
     resolution: float = 0.05
+    engine: str = "batched"
+    """How paths are checked against the world (:mod:`stalm.motion.colliders`)."""
     _roadmaps: dict[frozenset[str], Roadmap] = field(default_factory=dict)
+    _collider: Collider | None = None
+
+    @property
+    def collider(self) -> Collider:
+        if self._collider is None:
+            self._collider = make_collider(self.sim, self.engine)
+        return self._collider
 
     def roadmap(self, open_doors: frozenset[str]) -> Roadmap:
         if open_doors not in self._roadmaps:
@@ -152,25 +162,21 @@ class BasePlanner:
         path = self._path_from_nodes(roadmap, nodes, start, goal)
         waypoints_per_edge = _edge_waypoints(path, self.resolution)
         ignored = set(ignore)
-        for index, waypoints in enumerate(waypoints_per_edge):
-            for pose in waypoints:
-                self.sim.set_base_only(pose)
-                hits = self.sim.robot_contacts(ignored)
-                if obstacle_filter is not None:
-                    hits &= obstacle_filter
-                if hits:
-                    a, b = nodes[index], nodes[index + 1]
-                    return (min(a, b), max(a, b)), hits
-        return None, set()
+        if obstacle_filter is not None:  # only those count: every other body is ignored
+            ignored |= set(self.sim.bodies.walls.values()) | set(self.sim.bodies.regions.values())
+            ignored |= set(self.sim.bodies.doors.values()) | set(self.sim.bodies.objects.values())
+            ignored -= obstacle_filter
+        waypoints = [pose for edge in waypoints_per_edge for pose in edge]
+        edge_of = [index for index, edge in enumerate(waypoints_per_edge) for _ in edge]
+        first, hits = self.collider.route_first_touch(waypoints, ignored)
+        if first < 0:
+            return None, set()
+        a, b = nodes[edge_of[first]], nodes[edge_of[first] + 1]
+        return (min(a, b), max(a, b)), hits
 
     def sweep(self, path: BasePath, ignore: Iterable[int] = ()) -> set[int]:
-        """Every body the robot touches anywhere along ``path`` (for occlusion predicates)."""
-        ignored = set(ignore)
-        hits: set[int] = set()
-        for pose in densify(path, self.resolution):
-            self.sim.set_base_only(pose)
-            hits |= self.sim.robot_contacts(ignored)
-        return hits
+        """Every body the robot touches anywhere along ``path``."""
+        return self.collider.route_touches(densify(path, self.resolution), set(ignore))
 
 
 def _edge_waypoints(path: BasePath, resolution: float) -> list[list[SE2]]:

@@ -1,29 +1,32 @@
 """Inverse kinematics for the gripper with random restarts, and the lift height it needs.
 
-PyBullet's damped-least-squares IK is local, so each attempt starts from a random arm
-configuration (drawn from the passed generator) and is accepted only if forward kinematics
-puts the grasp point within :data:`POSITION_TOLERANCE` and the orientation within
-:data:`ANGLE_TOLERANCE` of the target and every joint is inside its limits.
+Damped least squares is local, so each attempt starts from an arm configuration (the nominal
+one, or a random one drawn from the passed generator) and is accepted only if forward
+kinematics puts the grasp point within :data:`POSITION_TOLERANCE` and the orientation within
+:data:`ANGLE_TOLERANCE` of the target; the joints stay inside their limits. The solver is
+:func:`stalm.motion.panda.solve_pose` (the URDF's chain, compiled): IK moves no PyBullet body,
+so the simulator is left as it was. PyBullet's own ``calculateInverseKinematics`` did the same
+steps at about a millisecond per attempt (calls, joint resets and a forward-kinematics check);
+it is kept as the reference of ``stalm bench ik`` (:mod:`stalm.motion.ik_reference`).
 """
 
 from __future__ import annotations
 
-import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
 
-from stalm.geometry.transforms import Pose3, angle_between_rotations, matrix_from_quat
+from stalm.geometry.transforms import Pose3, matrix_from_quat
+from stalm.motion import panda
 from stalm.world import robot as robot_model
-from stalm.world.scene import ARM_JOINTS, GRASP_LINK, Sim
+from stalm.world.scene import Sim
 
 POSITION_TOLERANCE = 0.005
 ANGLE_TOLERANCE = 0.03
 SHOULDER_ABOVE_MOUNT = 0.333
-REFINEMENTS = 3
-"""IK calls per restart, each starting where the previous ended (PyBullet's IK is one
-damped-least-squares run and often stops short of the target)."""
+ITERATIONS = 150
+"""Damped-least-squares steps per attempt (most converge in under 30)."""
 NOMINAL_ARM = (0.0, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785)
 """First seed: the arm reaching forward at mid height, where most grasps lie."""
 
@@ -46,56 +49,31 @@ def lift_candidates(target_z: float) -> tuple[float, ...]:
     return tuple(values)
 
 
+def target_matrix(target: Pose3) -> np.ndarray:
+    """A gripper pose (position, quaternion) as a 4x4 transform."""
+    matrix = np.eye(4)
+    matrix[:3, :3] = matrix_from_quat(target[1])
+    matrix[:3, 3] = target[0]
+    return matrix
+
+
+def refine(
+    base: tuple[float, float, float], target: Pose3, lift: float, seed: tuple[float, ...]
+) -> IKSolution | None:
+    """Damped least squares from ``seed`` at ``lift``; the solution if it reaches ``target``
+    within the tolerances."""
+    frame = panda.base_frame(robot_model.arm_mount(base, lift))
+    q, position, angle = panda.solve_pose(frame, target_matrix(target), seed, ITERATIONS)
+    if position <= POSITION_TOLERANCE and angle <= ANGLE_TOLERANCE:
+        return IKSolution(lift, q)
+    return None
+
+
 def solve_ik_from(
     sim: Sim, base: tuple[float, float, float], target: Pose3, start: IKSolution
 ) -> IKSolution | None:
     """IK seeded at a known nearby solution and its lift (for approach and lift-off poses)."""
-    return _refine(sim, base, target, start.lift, start.arm)
-
-
-def _limits() -> tuple[list[float], list[float], list[float]]:
-    lows = [lo for lo, _ in robot_model.ARM_JOINT_LIMITS]
-    highs = [hi for _, hi in robot_model.ARM_JOINT_LIMITS]
-    return lows, highs, [hi - lo for lo, hi in robot_model.ARM_JOINT_LIMITS]
-
-
-def _refine(
-    sim: Sim, base: tuple[float, float, float], target: Pose3, lift: float, seed: tuple[float, ...]
-) -> IKSolution | None:
-    """Up to :data:`REFINEMENTS` IK calls from ``seed``; the solution if FK confirms it."""
-    lows, highs, _ = _limits()
-    target_rot = matrix_from_quat(target[1])
-    held, held_offset = sim.held, sim.held_yaw_offset
-    sim.attach(None)
-    try:
-        q = seed
-        for _ in range(REFINEMENTS):
-            sim.set_arm(base, lift, q)
-            # plain damped least squares: without null-space terms it converges as often here
-            # and twice as fast; joint limits are enforced by the check below
-            solution = p.calculateInverseKinematics(
-                sim.bodies.arm,
-                GRASP_LINK,
-                list(target[0]),
-                list(target[1]),
-                maxNumIterations=60,
-                residualThreshold=1e-5,
-                physicsClientId=sim.client,
-            )
-            q = tuple(
-                min(hi, max(lo, float(v)))
-                for v, lo, hi in zip(solution[: len(ARM_JOINTS)], lows, highs, strict=True)
-            )
-            sim.set_arm(base, lift, q)
-            pos, orn = sim.gripper_pose()
-            if (
-                math.dist(pos, target[0]) <= POSITION_TOLERANCE
-                and angle_between_rotations(matrix_from_quat(orn), target_rot) <= ANGLE_TOLERANCE
-            ):
-                return IKSolution(lift, q)
-        return None
-    finally:
-        sim.attach(held, held_offset)
+    return refine(base, target, start.lift, start.arm)
 
 
 def solve_ik(
@@ -105,21 +83,36 @@ def solve_ik(
     rng: np.random.Generator,
     attempts: int = 6,
 ) -> IKSolution | None:
-    """An arm configuration putting the grasp point at ``target`` from ``base``, or None.
+    """An arm configuration putting the grasp point at ``target`` from ``base``, or None:
+    the first of :func:`solutions_by_lift`."""
+    return next(solutions_by_lift(sim, base, target, rng, attempts), None)
 
-    The first restart starts from :data:`NOMINAL_ARM`, later ones from random configurations;
-    lift heights cycle through :func:`lift_candidates`.
-    """
-    lows, highs, _ = _limits()
+
+def solutions_by_lift(
+    sim: Sim,
+    base: tuple[float, float, float],
+    target: Pose3,
+    rng: np.random.Generator,
+    attempts: int = 6,
+) -> Iterator[IKSolution]:
+    """Arm configurations putting the grasp point at ``target`` from ``base``, at most one per
+    lift height, in the order tried: lift heights cycle through :func:`lift_candidates`, two
+    attempts each, the first from :data:`NOMINAL_ARM` and the second from a random
+    configuration drawn from ``rng``. A caller whose motion at one lift collides asks for the
+    next (an object carried low can be dragged through its table as the arm folds)."""
+    lows = [lo for lo, _ in robot_model.ARM_JOINT_LIMITS]
+    highs = [hi for _, hi in robot_model.ARM_JOINT_LIMITS]
     candidates = lift_candidates(target[0][2])
-    for attempt in range(attempts):
+    attempt = 0
+    while attempt < attempts:
         lift = candidates[(attempt // 2) % len(candidates)]
         seed: tuple[float, ...]
         if attempt % 2 == 0:
             seed = NOMINAL_ARM
         else:
             seed = tuple(float(v) for v in rng.uniform(lows, highs))
-        solution = _refine(sim, base, target, lift, seed)
+        solution = refine(base, target, lift, seed)
+        attempt += 1
         if solution is not None:
-            return solution
-    return None
+            yield solution
+            attempt += attempt % 2  # the next lift's first attempt

@@ -4,9 +4,11 @@ The operators' samplers ψ (``stalm.domain``), the occlusion predicates (``stalm
 and PDDLStream's streams (``stalm.planners.pddlstream``) must plan the very same motions, or a
 predicate would call feasible what PICK then cannot do. Each builds its motions here:
 
-* :meth:`Manipulator.pick`, :meth:`Manipulator.place` and :meth:`Manipulator.open`: IK for
+* :meth:`Manipulator.picks`, :meth:`Manipulator.places` and :meth:`Manipulator.open`: IK for
   the gripper's target (with the operator's restarts), then the arm's waypoints into that
-  configuration and out of it (:mod:`stalm.motion.reach`), as one :class:`ArmMotion`;
+  configuration and out of it (:mod:`stalm.motion.reach`), as one :class:`ArmMotion`, and
+  for a pick or a placement another one at the next lift height while the caller refuses
+  them (the first's motion collides);
 * :meth:`ArmMotion.pick_segments` and its kin: the dense motion as the segments a sweep tests
   (:mod:`stalm.motion.sweeps`), carrying the object where the operator carries it;
 * :meth:`Manipulator.sweep`: that motion swept through the scene, refused if it touches the
@@ -21,6 +23,7 @@ motion touches (occluders).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,8 +41,9 @@ from stalm.geometry.transforms import (
 )
 from stalm.motion.arm_motion import interpolate_waypoints
 from stalm.motion.base_motion import BasePath, BasePlanner
+from stalm.motion.colliders import make_collider
 from stalm.motion.grasps import APPROACH_DISTANCE, LIFT_DISTANCE, PLACE_CLEARANCE
-from stalm.motion.ik import solve_ik
+from stalm.motion.ik import solutions_by_lift, solve_ik
 from stalm.motion.reach import leave_waypoints, reach_waypoints, solution_conf
 from stalm.motion.sweeps import ArmSegment, BaseSegment, ObjectAt, Segment, SweptMotion, sweep
 from stalm.motion.sweeps import base_segment as _base_segment
@@ -101,8 +105,10 @@ class ArmMotion:
 class Manipulator:
     """Builds and sweeps pick, place and open motions in one simulator (which it moves)."""
 
-    def __init__(self, sim: Sim) -> None:
+    def __init__(self, sim: Sim, engine: str = "batched") -> None:
         self.sim = sim
+        self.collider = make_collider(sim, engine)
+        """What the motions touch (the batched engine, or the PyBullet reference)."""
         self.spec = sim.problem
         self.static = frozenset(sim.bodies.walls.values()) | frozenset(sim.bodies.regions.values())
         """Bodies no action moves: a motion touching one is infeasible, not occluded."""
@@ -111,25 +117,27 @@ class Manipulator:
         }
         """Each object's radius seen from above."""
 
-    def pick(
+    def picks(
         self, stand: SE2, target: Pose3, rng: np.random.Generator, ik_attempts: int
-    ) -> ArmMotion | None:
+    ) -> Iterator[ArmMotion]:
         """The gripper at ``target``: IK, the approach backing off along the gripper's axis,
-        and the lift; None if IK finds no solution. Nothing stays attached."""
-        return self._reach(
+        and the lift; one motion per lift height IK reaches it from (see
+        :func:`~stalm.motion.ik.solutions_by_lift`), the next asked for only when the caller
+        refuses one. Nothing stays attached."""
+        return self._reaches(
             stand, target, rng, ik_attempts, (APPROACH_DISTANCE, 0.0), (0.0, LIFT_DISTANCE)
         )
 
-    def place(
+    def places(
         self, stand: SE2, hand: Pose3, rng: np.random.Generator, ik_attempts: int
-    ) -> ArmMotion | None:
+    ) -> Iterator[ArmMotion]:
         """The hand at ``hand`` (see :func:`placing_hand`): IK, the lowering from above, and
-        the retreat along the gripper's axis; None if IK finds no solution."""
-        return self._reach(
+        the retreat along the gripper's axis; one motion per lift height, as :meth:`picks`."""
+        return self._reaches(
             stand, hand, rng, ik_attempts, (0.0, PLACE_CLEARANCE), (APPROACH_DISTANCE, 0.0)
         )
 
-    def _reach(
+    def _reaches(
         self,
         stand: SE2,
         target: Pose3,
@@ -137,19 +145,17 @@ class Manipulator:
         ik_attempts: int,
         into: tuple[float, float],
         out: tuple[float, float],
-    ) -> ArmMotion | None:
+    ) -> Iterator[ArmMotion]:
         """IK at ``target``, then waypoints in through and out through offset poses, each
         (backoff along the gripper's axis, raise) from the target."""
         self.sim.attach(None)
-        solution = solve_ik(self.sim, stand, target, rng, ik_attempts)
-        if solution is None:
-            return None
-        return ArmMotion(
-            stand,
-            solution_conf(solution),
-            tuple(reach_waypoints(self.sim, stand, target, solution, *into)),
-            tuple(leave_waypoints(self.sim, stand, target, solution, *out)),
-        )
+        for solution in solutions_by_lift(self.sim, stand, target, rng, ik_attempts):
+            yield ArmMotion(
+                stand,
+                solution_conf(solution),
+                tuple(reach_waypoints(self.sim, stand, target, solution, *into)),
+                tuple(leave_waypoints(self.sim, stand, target, solution, *out)),
+            )
 
     def open(
         self, door: str, stand: SE2, rng: np.random.Generator, ik_attempts: int
@@ -168,11 +174,15 @@ class Manipulator:
             (handle, *robot_model.fold(handle)),
         )
 
-    def sweep(self, segments: tuple[Segment, ...]) -> tuple[SweptMotion, frozenset[int]] | None:
+    def sweep(
+        self, segments: tuple[Segment, ...], refuse: frozenset[int] = frozenset()
+    ) -> tuple[SweptMotion, frozenset[int]] | None:
         """Sweep ``segments`` in the world as the caller set it: None if they touch the static
-        scene, else the motion (with no hits named yet) and every body it touched."""
-        bodies, fan = sweep(self.sim, segments)
-        if bodies & self.static:
+        scene or a body of ``refuse``, else the motion (with no hits named yet) and every body
+        it touched. A refused motion is not swept past the contact that refuses it."""
+        stop = self.static | refuse
+        bodies, fan = sweep(self.collider, segments, stop)
+        if bodies & stop:
             return None
         held = next((s.held for s in segments if isinstance(s, ArmSegment) and s.held), None)
         reach = self.extent[held.obj] + math.dist((0, 0, 0), held.position) if held else 0.0

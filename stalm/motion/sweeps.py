@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from stalm.motion.base_motion import SE2, BasePath, densify
-from stalm.world import robot as robot_model
+from stalm.motion.colliders import Collider
 from stalm.world.scene import Sim
 from stalm.world.state import Grasp, ObjectPose
 
@@ -106,13 +106,18 @@ def base_segment(path: BasePath, resolution: float) -> BaseSegment:
     return BaseSegment(tuple(densify(path, resolution)))
 
 
-def sweep(sim: Sim, segments: Iterable[Segment]) -> tuple[frozenset[int], Fan]:
+def sweep(
+    collider: Collider, segments: Iterable[Segment], stop_at: frozenset[int] = frozenset()
+) -> tuple[frozenset[int], Fan]:
     """Every body touched anywhere along ``segments`` (besides the robot and what it holds),
-    and the arm's reach lines.
+    and the arm's reach lines, as ``collider`` finds them (both engines give the same bodies).
+    Once a body of ``stop_at`` is touched the sweep ends there (its caller refuses the
+    motion whatever else it touches).
 
     The caller sets the world (which objects stand where); this moves only the robot, the
     object it holds and, for an :class:`ObjectAt`, that object.
     """
+    sim = collider.sim
     hits: set[int] = set()
     fan: list[tuple[float, float, float, float]] = []
     robot = (sim.bodies.base, sim.bodies.arm)
@@ -128,17 +133,16 @@ def sweep(sim: Sim, segments: Iterable[Segment]) -> tuple[frozenset[int], Fan]:
             # the base stands still while the arm moves: what it touches is tested once
             base, moving = sim.robot_bodies()[0], sim.robot_bodies()[1:]
             hits |= sim.contacts_of([base], ignore | set(moving))
-            for conf in segment.confs:
-                mount = robot_model.arm_mount(segment.base, conf[0])
-                sim.set_arm_at(mount, conf[1:])
-                hits |= sim.contacts_of(moving, ignore | {base})
-                hand = sim.gripper_pose()[0]
-                fan.append((mount.x, mount.y, hand[0], hand[1]))
+            touched, reach = collider.arm_touches(
+                segment.base, segment.confs, moving, ignore, stop_at
+            )
+            hits |= touched
+            fan.extend(reach)
+            if hits & stop_at:
+                break
         else:
             sim.attach(None)
-            for pose in segment.waypoints:
-                sim.set_base_only(pose)
-                hits |= sim.robot_contacts()
+            hits |= collider.route_touches(segment.waypoints, set())
     sim.attach(None)
     return frozenset(hits), tuple(fan)
 

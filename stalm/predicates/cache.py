@@ -12,10 +12,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
-from stalm.motion.sweeps import SweptMotion
+from stalm.motion.manipulation import PARKED
+from stalm.motion.sweeps import ArmSegment, ObjectAt, SweptMotion, sweep_near
+from stalm.predicates.deadline import Deadline, check
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.samples import PickRecord, PlacementSample
-from stalm.world.state import Grasp, State
+from stalm.world.scene import Sim
+from stalm.world.state import Grasp, ObjectPose, State
 
 Key = TypeVar("Key", bound=tuple[str, ...])
 Samples = tuple[PlacementSample, ...]
@@ -34,6 +37,9 @@ class PredicateCache:
     grasps: dict[str, tuple[Grasp, float]] = field(default_factory=dict)
     unreachable: set[str] = field(default_factory=set)
     swept_motions: int = 0
+    relevant: frozenset[str] | None = None
+    """The objects the literals are computed for (None: every object; see
+    ``PredicateSettings.relevant_only``)."""
 
 
 def map_motions(
@@ -67,3 +73,43 @@ def forget_object(cache: PredicateCache, obj: str) -> None:
         return motion if obj not in motion.hits else replace(motion, hits=motion.hits - {obj})
 
     map_motions(cache, strip, drop_placements_of=obj)
+
+
+def resweep_near(
+    cache: PredicateCache,
+    sim: Sim,
+    obj: str,
+    pose: ObjectPose,
+    radius: float,
+    deadline: Deadline | None,
+) -> None:
+    """Test the motions of ``cache`` that pass near ``obj``'s new ``pose`` against it, and it
+    alone (the rest of the world did not move); ``radius``: its extent seen from above."""
+    body = sim.bodies.objects[obj]
+
+    def again(motion: SweptMotion) -> SweptMotion:
+        if not motion.near(pose.x, pose.y, radius):
+            return motion
+        check(deadline)
+        cache.swept_motions += 1
+        sim.place_object(obj, pose)
+        hit = sweep_near(sim, motion, body, pose.x, pose.y, radius)
+        _restore_subjects(sim, cache.state, motion)
+        sim.place_object(obj, pose)
+        return replace(motion, hits=motion.hits | {obj}) if hit else motion
+
+    map_motions(cache, again)
+
+
+def _restore_subjects(sim: Sim, state: State, motion: SweptMotion) -> None:
+    """Put back the objects a sweep carried or placed (a pick's or placement's subject)."""
+    for segment in motion.segments:
+        moved = segment.obj if isinstance(segment, ObjectAt) else None
+        if isinstance(segment, ArmSegment) and segment.held is not None:
+            moved = segment.held.obj
+        if moved is None:
+            continue
+        if state.has_pose(moved):
+            sim.place_object(moved, state.pose(moved))
+        else:
+            sim.place_object(moved, PARKED)

@@ -50,17 +50,16 @@ never reads occlusion literals, so nothing else needs them.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Protocol
 
 from stalm.geometry.directions import RELATIVE_DIRECTIONS
 from stalm.motion.base_motion import BasePlanner
 from stalm.motion.grasps import PITCH_RANGE, YAW_RANGE
 from stalm.motion.manipulation import PARKED
-from stalm.motion.sweeps import ArmSegment, ObjectAt, SweptMotion, sweep_near
-from stalm.predicates.cache import PredicateCache, forget_object, map_motions
+from stalm.predicates.cache import PredicateCache, forget_object, resweep_near
 from stalm.predicates.deadline import Deadline, DeadlinePassed, check
-from stalm.predicates.literals import GroundLiteral
+from stalm.predicates.goals import goal_region, goal_relation
+from stalm.predicates.literals import SCOPE_PREDICATE, GroundLiteral
 from stalm.predicates.samples import (
     MotionSamples,
     PlacementSample,
@@ -71,7 +70,7 @@ from stalm.world.problem import Problem
 from stalm.world.relations import direction_between
 from stalm.world.scene import Sim
 from stalm.world.spec import RegionSpec
-from stalm.world.state import ObjectPose, State
+from stalm.world.state import State
 
 
 class ActionTuple(Protocol):
@@ -135,6 +134,8 @@ class PredicateEngine:
         ``deadline`` (None: none) has passed between two samples. ``cache`` is not changed."""
         if not self.occlusion:
             return PredicateCache(state=state, literals=self._symbolic(state))
+        if self.settings.relevant_only:  # the relevant set itself moves with the state
+            return self.compute(state, deadline)
         try:
             return self._update(cache, action, state, deadline)
         except DeadlinePassed:
@@ -147,17 +148,64 @@ class PredicateEngine:
         for region in self.spec.regions:
             check(deadline)
             cache.base[region.name] = self.samples.base_motion(region)
-        for name, pose in state.poses:
-            check(deadline)
-            cache.picks[name] = self.samples.pick_record(name, pose)
-        self._refresh_grasps(cache)
-        for obj in cache.grasps:
-            for region in self.spec.regions:
-                cache.placements[(obj, region.name)] = self._placements(
-                    cache, obj, region, deadline
-                )
+        if self.settings.relevant_only:
+            self._relevant(cache, deadline)  # placements only at the goal
+        else:
+            for name, pose in state.poses:
+                check(deadline)
+                cache.picks[name] = self.samples.pick_record(name, pose)
+            self._refresh_grasps(cache)
+            for obj in cache.grasps:
+                for region in self.spec.regions:
+                    cache.placements[(obj, region.name)] = self._placements(
+                        cache, obj, region, deadline
+                    )
         cache.literals = self._derive(cache, deadline)
         return cache
+
+    def _relevant(self, cache: PredicateCache, deadline: Deadline | None) -> None:
+        """Picks of the goal's objects, of what occludes picking them or placing them at their
+        goal, and recursively of what occludes picking those (a closed door opens, so only
+        objects are followed)."""
+        state = cache.state
+        obstacles = self._obstacles(state)
+        movable = {name for name, _ in state.poses}
+        goal = self.problem.goal
+        queue = [g.obj for g in goal] + [g.ref for g in goal if g.direction != "on"]
+        seen: set[str] = set()
+        while queue:
+            obj = queue.pop(0)
+            if obj in seen or (
+                not state.has_pose(obj) and (state.held is None or state.held.obj != obj)
+            ):
+                continue
+            seen.add(obj)
+            occluders: set[str] = set()
+            if state.has_pose(obj):
+                check(deadline)
+                record = self.samples.pick_record(obj, state.pose(obj))
+                cache.picks[obj] = record
+                base = cache.base[record.region].hits
+                best = _fewest((m.hits | base) & (obstacles - {obj}) for m in record.motions)
+                occluders |= set(best or ())
+            self._refresh_grasps(cache)
+            for target in (g for g in goal if g.obj == obj and obj in cache.grasps):
+                region = goal_region(self.spec, state, target.direction, target.ref)
+                if region is None:
+                    continue
+                samples = cache.placements.get((obj, region.name))
+                if samples is None:
+                    samples = self._placements(cache, obj, region, deadline)
+                    cache.placements[(obj, region.name)] = samples
+                if target.direction != "on":
+                    samples = self._targeted(
+                        cache, obj, target.direction, target.ref, region, deadline
+                    )
+                base = cache.base[region.name].hits
+                best = _fewest((s.motion.hits | base) & (obstacles - {obj}) for s in samples)
+                occluders |= set(best or ())
+            queue.extend(sorted(occluders & movable))
+        cache.relevant = frozenset(seen)
 
     def _update(
         self, cache: PredicateCache, action: ActionTuple, state: State, deadline: Deadline | None
@@ -181,7 +229,7 @@ class PredicateEngine:
         elif operator == "place":
             obj = arguments[0]
             forget_object(new, obj)
-            self._resweep_near(new, obj, state.pose(obj), deadline)
+            resweep_near(new, self.sim, obj, state.pose(obj), self._extent[obj], deadline)
             check(deadline)
             new.picks[obj] = self.samples.pick_record(obj, state.pose(obj))
             self._refresh_grasps(new)
@@ -251,40 +299,6 @@ class PredicateEngine:
         return cache.targeted[key]
 
     # ------------------------------------------------------------------ updates
-    def _resweep_near(
-        self, cache: PredicateCache, obj: str, pose: ObjectPose, deadline: Deadline | None
-    ) -> None:
-        """Test motions passing near ``obj``'s new pose against it, and it alone."""
-        body = self.sim.bodies.objects[obj]
-
-        radius = self._extent[obj]
-
-        def again(motion: SweptMotion) -> SweptMotion:
-            if not motion.near(pose.x, pose.y, radius):
-                return motion
-            check(deadline)
-            cache.swept_motions += 1
-            self.sim.place_object(obj, pose)
-            hit = sweep_near(self.sim, motion, body, pose.x, pose.y, radius)
-            self._restore_subjects(cache.state, motion)
-            self.sim.place_object(obj, pose)
-            return replace(motion, hits=motion.hits | {obj}) if hit else motion
-
-        map_motions(cache, again)
-
-    def _restore_subjects(self, state: State, motion: SweptMotion) -> None:
-        """Put back the objects a sweep carried or placed (a pick's or placement's subject)."""
-        for segment in motion.segments:
-            moved = segment.obj if isinstance(segment, ObjectAt) else None
-            if isinstance(segment, ArmSegment) and segment.held is not None:
-                moved = segment.held.obj
-            if moved is None:
-                continue
-            if state.has_pose(moved):
-                self.sim.place_object(moved, state.pose(moved))
-            else:
-                self.sim.place_object(moved, PARKED)
-
     def _resample_placements_of(
         self, cache: PredicateCache, obj: str, deadline: Deadline | None
     ) -> None:
@@ -309,6 +323,8 @@ class PredicateEngine:
         regions_of = add_symbolic(self.spec, state, literals)
         obstacles = self._obstacles(state)
         cache.unreachable = set()
+        if cache.relevant is not None:
+            literals.update(GroundLiteral(SCOPE_PREDICATE, (obj,)) for obj in cache.relevant)
         for obj, record in cache.picks.items():
             base = cache.base[record.region].hits
             best = _fewest((m.hits | base) & (obstacles - {obj}) for m in record.motions)
@@ -319,12 +335,16 @@ class PredicateEngine:
             literals.update(GroundLiteral("PickOccludedBy", (obj, x)) for x in best)
         for obj in cache.grasps:
             for region in self.spec.regions:
+                if cache.relevant is not None and (obj, region.name) not in cache.placements:
+                    continue  # not at the goal: left to Concretize
                 samples = cache.placements.get((obj, region.name), ())
                 self._place_literals(
                     cache, literals, obstacles, obj, "on", region.name, region, samples
                 )
                 for ref, ref_region in regions_of.items():
                     if ref == obj or ref_region != region.name:
+                        continue
+                    if cache.relevant is not None and not goal_relation(self.problem, obj, ref):
                         continue
                     ref_pose = state.pose(ref)
                     for direction in RELATIVE_DIRECTIONS:

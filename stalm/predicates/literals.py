@@ -24,6 +24,12 @@ motion can do in the state whatever is moved. They are literals of the state lik
 the paper's prompt (Figure 13) leaves them out and a prompt setting adds them as one line
 (:class:`~stalm.llm.prompt.PromptOptions`), the symbolic proposer's PDDL rules the actions out."""
 
+SCOPE_PREDICATE = "OcclusionComputed"
+"""Beyond the paper: OcclusionComputed(o) says the occlusion literals were computed for o. Only
+relevance-limited predicates (``predicates.relevant_only``) state it, one per object they
+covered; an object without it may be occluded or not, nobody looked. The prompt shows the
+list as a section of its own; no PDDL reads it."""
+
 
 @dataclass(frozen=True, order=True)
 class GroundLiteral:

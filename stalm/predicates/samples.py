@@ -21,8 +21,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from stalm.errors import StalmError
 from stalm.geometry.transforms import Pose3, compose, invert, quat_yaw, wrap_angle, yaw_quat
 from stalm.motion.base_motion import BasePlanner
+from stalm.motion.colliders import ENGINES, Engine
 from stalm.motion.grasps import (
     PITCH_RANGE,
     YAW_RANGE,
@@ -64,6 +66,24 @@ class PredicateSettings:
     targeted_samples: int = 1
     ik_attempts: int = 4
     seed: int = 0
+    relevant_only: bool = False
+    """Beyond the paper (off for its rows): occlusion literals only for the objects a plan
+    must touch: the goal's objects, what occludes picking them or placing them at their goal,
+    and recursively what occludes picking those (Hcount's set M, Appendix C); placements only
+    of the goal's objects at their goal (where an occluder is put down is left to Concretize,
+    which checks it). A scene of many objects with a few goal objects then costs about what a
+    small one does (``PredicateEngine``)."""
+    engine: Engine = "batched"
+    """How the sampled motions are swept: 'batched' (compiled candidate tests, each candidate
+    confirmed by PyBullet) or 'pybullet' (every configuration queried; the reference). Both
+    give the same literals (:mod:`stalm.motion.colliders`)."""
+
+    def __post_init__(self) -> None:
+        if self.engine not in ENGINES:
+            raise StalmError(
+                f"setting predicates.engine must be one of {', '.join(ENGINES)}, got "
+                f"{self.engine!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -117,15 +137,19 @@ class MotionSamples:
         self.sim = sim
         self.base_planner = base_planner
         self.settings = settings
-        self.hands = Manipulator(sim)
+        self.hands = Manipulator(sim, settings.engine)
         self._all_open = frozenset(d.name for d in spec.doors)
         self._names = {b: n for n, b in sim.bodies.objects.items()} | {
             b: n for n, b in sim.bodies.doors.items()
         }
 
-    def _sweep(self, segments: tuple[Segment, ...]) -> SweptMotion | None:
-        """Sweep; None if the motion hits the static scene (no moving of objects frees it)."""
-        swept = self.hands.sweep(segments)
+    def _sweep(
+        self, segments: tuple[Segment, ...], clear_of: str | None = None
+    ) -> SweptMotion | None:
+        """Sweep; None if the motion hits the static scene (no moving of objects frees it) or
+        the object ``clear_of`` (a placement's own reference)."""
+        refuse = frozenset({self.sim.bodies.objects[clear_of]}) if clear_of else frozenset()
+        swept = self.hands.sweep(segments, refuse)
         if swept is None:
             return None
         motion, bodies = swept
@@ -140,7 +164,7 @@ class MotionSamples:
         segment = route_segment(
             self.base_planner, self.spec.robot.base, region.base_pose, self._all_open
         )
-        bodies, _ = sweep(self.sim, (segment,))
+        bodies, _ = sweep(self.hands.collider, (segment,))
         return SweptMotion((segment,), self.named(bodies))
 
     def pick_record(self, obj: str, pose: ObjectPose) -> PickRecord:
@@ -162,18 +186,17 @@ class MotionSamples:
             draws += 1
             pitch, yaw = sample_grasp_angles(rng, self.pitch_range, self.yaw_range)
             target = gripper_target(point, stand[2], pitch, yaw)
-            arm = self.hands.pick(stand, target, rng, self.settings.ik_attempts)
-            if arm is None:
-                continue
             this_grasp = Grasp.make(obj, *compose(invert(target), object_pose))
-            self.sim.place_object(obj, pose)
-            motion = self._sweep(arm.pick_segments(obj, this_grasp))
-            self.sim.place_object(obj, pose)
-            if motion is None:
-                continue
-            motions.append(replace(motion, hits=motion.hits - {obj}))
-            if grasp is None:
-                grasp = this_grasp
+            for arm in self.hands.picks(stand, target, rng, self.settings.ik_attempts):
+                self.sim.place_object(obj, pose)
+                motion = self._sweep(arm.pick_segments(obj, this_grasp))
+                self.sim.place_object(obj, pose)
+                if motion is None:
+                    continue  # through the static scene: the next lift height
+                motions.append(replace(motion, hits=motion.hits - {obj}))
+                if grasp is None:
+                    grasp = this_grasp
+                break
         return PickRecord(pose, region_name, grasp, wrap_angle(pose.yaw - stand[2]), tuple(motions))
 
     def placements(
@@ -265,24 +288,30 @@ class MotionSamples:
                 break
             if not keep(pose):
                 continue
-            sample = self._placement_motion(obj, grasp, region, pose, rng)
-            if sample is not None and clear_of not in sample.motion.hits:
+            sample = self._placement_motion(obj, grasp, region, pose, rng, clear_of)
+            if sample is not None:
                 samples.append(sample)
         return tuple(samples)
 
     def _placement_motion(
-        self, obj: str, grasp: Grasp, region: RegionSpec, pose: ObjectPose, rng: np.random.Generator
+        self,
+        obj: str,
+        grasp: Grasp,
+        region: RegionSpec,
+        pose: ObjectPose,
+        rng: np.random.Generator,
+        clear_of: str | None = None,
     ) -> PlacementSample | None:
         stand = region.base_pose
-        arm = self.hands.place(stand, placing_hand(pose, grasp), rng, self.settings.ik_attempts)
-        if arm is None:
-            return None
         original = self.sim.object_pose(obj)
-        motion = self._sweep(arm.place_segments(obj, grasp, pose))
-        self.sim.place_object(obj, _pose_of(original))
-        if motion is None:
-            return None
-        return PlacementSample(pose, replace(motion, hits=motion.hits - {obj}))
+        for arm in self.hands.places(
+            stand, placing_hand(pose, grasp), rng, self.settings.ik_attempts
+        ):
+            motion = self._sweep(arm.place_segments(obj, grasp, pose), clear_of)
+            self.sim.place_object(obj, _pose_of(original))
+            if motion is not None:
+                return PlacementSample(pose, replace(motion, hits=motion.hits - {obj}))
+        return None
 
 
 def _pose_of(pose3: Pose3) -> ObjectPose:

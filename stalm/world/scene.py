@@ -183,6 +183,11 @@ class Sim:
         arm = [p.getJointState(self.bodies.arm, j, physicsClientId=c)[0] for j in ARM_JOINTS]
         return RobotConf.make((pos[0], pos[1], quat_yaw(orn)), mount_pos[2], arm)
 
+    def arm_conf(self) -> tuple[float, ...]:
+        """The lift and the seven arm joints as the simulator has them now."""
+        states = p.getJointStates(self.bodies.arm, ARM_JOINT_LIST, physicsClientId=self.client)
+        return (self._robot.lift, *(state[0] for state in states))
+
     def gripper_pose(self) -> Pose3:
         """World pose of the grasp point between the fingertips (computed once per arm
         configuration: a sweep asks for it to carry the held object and again for its

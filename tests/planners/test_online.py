@@ -23,6 +23,7 @@ from stalm.planners.stalm_no_uct import StalmNoUctPlanner
 from stalm.planners.uct import UctPlanner
 from stalm.planners.uct_hcount import UctHcountPlanner
 from stalm.predicates.engine import PredicateCache
+from stalm.predicates.samples import MotionSamples
 
 PLANNERS = Path(__file__).resolve().parents[2] / "stalm" / "planners"
 
@@ -145,12 +146,21 @@ def test_no_planner_module_is_over_400_lines() -> None:
 
 @pytest.mark.parametrize("planner", ["stalm", "uct-hcount"])
 def test_a_trial_ends_at_its_deadline_while_predicates_are_computed(
-    problems, domain_factory, planner
+    problems, domain_factory, monkeypatch, planner
 ) -> None:
-    """P2's first predicates take seconds; a one-second trial stops inside them (STaLM's
-    prompt predicates; UCT-with-Hcount's, from a leaf inside its search) as a 'timeout' with
-    its result. The base roadmaps are built first (a trial reads them from the disk cache):
-    building one is the problem's cost, once per machine, and no deadline bounds it."""
+    """A one-second trial whose first predicates take longer (each pick record slowed to
+    0.4 s here, so P2's four objects need 1.6 s whatever the machine) stops inside them
+    (STaLM's prompt predicates; UCT-with-Hcount's, from a leaf inside its search) as a
+    'timeout' with its result. The base roadmaps are built first (a trial reads them from the
+    disk cache): building one is the problem's cost, once per machine, and no deadline bounds
+    it."""
+    pick_record = MotionSamples.pick_record
+
+    def slow_pick_record(self: MotionSamples, *args: object, **kwargs: object) -> object:
+        time.sleep(0.4)
+        return pick_record(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(MotionSamples, "pick_record", slow_pick_record)
     p2 = domain_factory("P2")
     doors = frozenset(door.name for door in p2.problem.spec.doors)
     for open_doors in (frozenset(), doors):
@@ -159,7 +169,7 @@ def test_a_trial_ends_at_its_deadline_while_predicates_are_computed(
     config = PlannerConfig(proposer="symbolic")
     result = build_planner(planner, config).solve(problems["P2"], seed=0, time_budget_s=budget)
     assert result.termination == "timeout" and not result.success
-    assert result.times.total <= budget + 1.5, result.times  # less than P2's first predicates take
+    assert result.times.total <= budget + 1.5, result.times  # less than the slowed predicates take
     assert result.times.predicates <= result.times.total
     assert result.plan == () and result.states == (problems["P2"].initial_state,)
     assert result.counters.collision_checks > 0  # the predicates were being computed

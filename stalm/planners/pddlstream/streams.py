@@ -201,14 +201,12 @@ class StreamGeometry:
         target = gripper_target(
             (wx, wy, pose.pose.z + grasp.point[2]), stand[2], grasp.pitch, grasp.yaw
         )
-        arm = self.hands.pick(stand, target, rng, self.settings.ik_attempts)
-        if arm is None:
-            return None
-        self.sim.place_object(obj, pose.pose)
-        swept = self._motion_from(arm.pick_segments(obj, grasp.grasp))
-        if swept is None:
-            return None
-        return self._value("pick", obj, arm, swept, names)
+        for arm in self.hands.picks(stand, target, rng, self.settings.ik_attempts):
+            self.sim.place_object(obj, pose.pose)
+            swept = self._motion_from(arm.pick_segments(obj, grasp.grasp))
+            if swept is not None:
+                return self._value("pick", obj, arm, swept, names)
+        return None
 
     def plan_place(
         self, pose: PoseValue, grasp: GraspValue, names: tuple[str, str], rng: np.random.Generator
@@ -218,13 +216,11 @@ class StreamGeometry:
         stand = self.spec.region(pose.region).base_pose
         self._clear(stand)
         hand = placing_hand(pose.pose, grasp.grasp)
-        arm = self.hands.place(stand, hand, rng, self.settings.ik_attempts)
-        if arm is None:
-            return None
-        swept = self._motion_from(arm.place_segments(obj, grasp.grasp, pose.pose))
-        if swept is None:
-            return None
-        return self._value("place", obj, arm, swept, names)
+        for arm in self.hands.places(stand, hand, rng, self.settings.ik_attempts):
+            swept = self._motion_from(arm.place_segments(obj, grasp.grasp, pose.pose))
+            if swept is not None:
+                return self._value("place", obj, arm, swept, names)
+        return None
 
     def plan_open(self, door: str, rng: np.random.Generator) -> MotionValue | None:
         """OPEN's handle motion from the first standing pose (nearest the robot's start) at
@@ -250,7 +246,7 @@ class StreamGeometry:
             every_door = frozenset(d.name for d in self.spec.doors)
             segment = route_segment(self.domain.base_planner, self.start, stand, every_door)
             self._clear(self.start)
-            bodies, _ = sweep(self.sim, (segment,))
+            bodies, _ = sweep(self.hands.collider, (segment,))
             doors = frozenset(self._door_of_body[b] for b in bodies if b in self._door_of_body)
             self._routes[stand] = Route(SweptMotion((segment,), frozenset()), doors)
         return self._routes[stand]

@@ -1,0 +1,317 @@
+"""Compiled candidate tests: which bodies a robot motion may touch, for many steps at once.
+
+A step is one arm configuration at a standing pose, or one base pose of a route with the arm
+as it is. The robot is the sphere model of the arm (:mod:`stalm.motion.panda_spheres`), plus
+boxes for what moves with it: the base column (its cylinder's bounding box) on a route, the
+held object's boxes in the gripper frame. The world is boxes (walls, counters, tables, door
+panels and handles, the grill's parts) and upright cylinders (cans, bottles, plates). Each
+test is conservative: a sphere that touches a box or a cylinder, or two boxes that the
+separating-axis test cannot separate, mark the body as a *candidate* at that step; a body no
+test marks cannot be in contact (the sphere model contains the arm's collision shapes, and a
+bounding box its cylinder). The caller confirms candidates with PyBullet.
+
+Every primitive carries its axis-aligned bounding box, and a step's robot has one too, so most
+pairs are dismissed by six comparisons before any sphere is looked at.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from stalm.motion.collision_primitives import (
+    apart,
+    box_aabb,
+    boxes_may_touch,
+    cylinder_box,
+    place_box,
+    sphere_touches_box,
+    sphere_touches_cylinder,
+)
+from stalm.motion.panda import GRASP, link_frames_into
+
+
+@numba.njit(cache=True)
+def _touches_primitive(
+    centre_x: float,
+    centre_y: float,
+    centre_z: float,
+    radius: float,
+    kind: int,
+    b: int,
+    boxes: np.ndarray,
+    cylinders: np.ndarray,
+    point: np.ndarray,
+) -> bool:
+    point[0], point[1], point[2] = centre_x, centre_y, centre_z
+    if kind == 0:
+        return sphere_touches_box(point, radius, boxes[b])
+    return sphere_touches_cylinder(point, radius, cylinders[b])
+
+
+@numba.njit(cache=True)
+def _group_touches(
+    g: int,
+    kind: int,
+    b: int,
+    state: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    model: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    boxes: np.ndarray,
+    cylinders: np.ndarray,
+) -> bool:
+    """Does a sphere of group ``g`` touch box ``b`` (``kind`` 0) or cylinder ``b`` (1)? The
+    group's bounding sphere is tried first; its spheres are placed in the world only then,
+    once per step (most groups are far from every body most of the time)."""
+    frames, group_world, placed, centres, point, _ = state
+    sphere_link, sphere_centre, sphere_radius, groups = model
+    if not _touches_primitive(
+        group_world[g, 0],
+        group_world[g, 1],
+        group_world[g, 2],
+        group_world[g, 3],
+        kind,
+        b,
+        boxes,
+        cylinders,
+        point,
+    ):
+        return False
+    if not placed[g]:
+        for i in range(groups[g, 0], groups[g, 1]):
+            link = sphere_link[i]
+            cx, cy, cz = sphere_centre[i, 0], sphere_centre[i, 1], sphere_centre[i, 2]
+            for r in range(3):
+                centres[i, r] = (
+                    frames[link, r, 0] * cx
+                    + frames[link, r, 1] * cy
+                    + frames[link, r, 2] * cz
+                    + frames[link, r, 3]
+                )
+        placed[g] = True
+    for i in range(groups[g, 0], groups[g, 1]):
+        if _touches_primitive(
+            centres[i, 0],
+            centres[i, 1],
+            centres[i, 2],
+            sphere_radius[i],
+            kind,
+            b,
+            boxes,
+            cylinders,
+            point,
+        ):
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def _mark_step(
+    step: int,
+    state: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    model: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    arm_groups: int,
+    moving_boxes: np.ndarray,
+    box_group: np.ndarray,
+    boxes: np.ndarray,
+    box_low: np.ndarray,
+    box_high: np.ndarray,
+    cylinders: np.ndarray,
+    out: np.ndarray,
+    work: tuple[np.ndarray, ...],
+) -> None:
+    """Mark in ``out[step]`` every body a sphere or a moving box of this step may touch.
+
+    Groups of spheres (one per link, then the held object's) each have a bounding sphere,
+    placed in the world (``state``'s ``group_world``) before this is called: the first
+    ``arm_groups`` are the arm's links, each tested alone; a moving box ``m`` with
+    ``box_group[m] >= 0`` marks a body only if that group's spheres touch it too (a held can
+    is inside both its box and its spheres: each alone is loose, at the box's corners or the
+    spheres' caps). A body is compared with anything only if it meets the bounding box of the
+    whole robot."""
+    group_world = state[1]
+    groups = model[3]
+    low, high, moving_low, moving_high, cylinder_low, cylinder_high, as_box, axis = work
+    for i in range(3):
+        low[i] = 1e18
+        high[i] = -1e18
+    for g in range(groups.shape[0]):
+        for i in range(3):
+            low[i] = min(low[i], group_world[g, i] - group_world[g, 3])
+            high[i] = max(high[i], group_world[g, i] + group_world[g, 3])
+    for m in range(moving_boxes.shape[0]):
+        box_aabb(moving_boxes[m], moving_low[m], moving_high[m])
+        for i in range(3):
+            low[i] = min(low[i], moving_low[m, i])
+            high[i] = max(high[i], moving_high[m, i])
+    for kind in range(2):
+        total = boxes.shape[0] if kind == 0 else cylinders.shape[0]
+        for b in range(total):
+            if kind == 0:
+                body = int(boxes[b, 15])
+                primitive_low, primitive_high = box_low[b], box_high[b]
+            else:
+                cyl = cylinders[b]
+                body = int(cyl[5])
+                cylinder_low[0], cylinder_low[1], cylinder_low[2] = (
+                    cyl[0] - cyl[4],
+                    cyl[1] - cyl[4],
+                    cyl[2],
+                )
+                cylinder_high[0], cylinder_high[1], cylinder_high[2] = (
+                    cyl[0] + cyl[4],
+                    cyl[1] + cyl[4],
+                    cyl[3],
+                )
+                primitive_low, primitive_high = cylinder_low, cylinder_high
+            if body < 0 or out[step, body]:
+                continue
+            if apart(primitive_low, primitive_high, low, high):
+                continue
+            hit = False
+            for g in range(arm_groups):
+                if hit:
+                    break
+                hit = _group_touches(g, kind, b, state, model, boxes, cylinders)
+            for m in range(moving_boxes.shape[0]):
+                if hit:
+                    break
+                if apart(primitive_low, primitive_high, moving_low[m], moving_high[m]):
+                    continue
+                if kind == 0:
+                    hit = boxes_may_touch(moving_boxes[m], boxes[b], axis)
+                else:
+                    cylinder_box(cylinders[b], as_box)
+                    hit = boxes_may_touch(moving_boxes[m], as_box, axis)
+                if hit and box_group[m] >= 0:
+                    hit = _group_touches(box_group[m], kind, b, state, model, boxes, cylinders)
+            if hit:
+                out[step, body] = True
+
+
+@numba.njit(cache=True)
+def candidate_steps(
+    stands: np.ndarray,
+    confs: np.ndarray,
+    mount_forward: float,
+    base_inertial_z: float,
+    revolute: np.ndarray,
+    hand: np.ndarray,
+    fingers: np.ndarray,
+    grasp: np.ndarray,
+    sphere_link: np.ndarray,
+    sphere_centre: np.ndarray,
+    sphere_radius: np.ndarray,
+    sphere_groups: np.ndarray,
+    arm_groups: int,
+    held_boxes: np.ndarray,
+    held_box_group: np.ndarray,
+    base_boxes: np.ndarray,
+    boxes: np.ndarray,
+    cylinders: np.ndarray,
+    bodies: int,
+    reach: np.ndarray,
+) -> np.ndarray:
+    """For each step ``k`` (the base at ``stands[k]`` = x, y, yaw; the lift and arm at
+    ``confs[k]`` = lift, 7 joints): which of ``bodies`` body columns the robot may touch.
+    The arm's mount and the grasp target at each step go into ``reach`` (steps x 4: mount x,
+    y, grasp target x, y), the lines :class:`~stalm.motion.sweeps.SweptMotion` keeps. Spheres
+    are grouped by link (``sphere_groups``: first and end index of each link's spheres).
+
+    ``held_boxes`` are in the grasp target's frame, ``base_boxes`` in the base's frame
+    (either may be empty); ``held_box_group[m]`` names the sphere group that must also touch
+    for held box ``m`` to mark a body (-1: the box alone), and the groups from
+    ``arm_groups`` on are such held spheres (linked to the grasp target frame). A body column
+    below 0 is never marked (a body to ignore)."""
+    steps = confs.shape[0]
+    out = np.zeros((steps, bodies), dtype=np.bool_)
+    box_low = np.empty((boxes.shape[0], 3))
+    box_high = np.empty((boxes.shape[0], 3))
+    for b in range(boxes.shape[0]):
+        box_aabb(boxes[b], box_low[b], box_high[b])
+    count = sphere_groups.shape[0]
+    bounds = np.zeros((count, 4))  # each group's bounding sphere in its link's frame
+    for g in range(count):
+        first, end = sphere_groups[g, 0], sphere_groups[g, 1]
+        for i in range(3):
+            lo, hi = 1e18, -1e18
+            for k in range(first, end):
+                lo = min(lo, sphere_centre[k, i] - sphere_radius[k])
+                hi = max(hi, sphere_centre[k, i] + sphere_radius[k])
+            bounds[g, i] = (lo + hi) / 2
+        for k in range(first, end):
+            extent = (
+                math.sqrt(
+                    (sphere_centre[k, 0] - bounds[g, 0]) ** 2
+                    + (sphere_centre[k, 1] - bounds[g, 1]) ** 2
+                    + (sphere_centre[k, 2] - bounds[g, 2]) ** 2
+                )
+                + sphere_radius[k]
+            )
+            bounds[g, 3] = max(bounds[g, 3], extent)
+    frames = np.empty((12, 4, 4))
+    group_world = np.empty((count, 4))
+    placed = np.zeros(count, dtype=np.bool_)
+    centres = np.empty((sphere_link.shape[0], 3))
+    state = (frames, group_world, placed, centres, np.empty(3), np.empty(1))
+    model = (sphere_link, sphere_centre, sphere_radius, sphere_groups)
+    base = np.eye(4)
+    stand_frame = np.eye(4)
+    moving = np.empty((held_boxes.shape[0] + base_boxes.shape[0], 16))
+    box_group = np.full(moving.shape[0], -1, dtype=np.int64)
+    box_group[: held_boxes.shape[0]] = held_box_group
+    work = (
+        np.empty(3),
+        np.empty(3),
+        np.empty((moving.shape[0], 3)),
+        np.empty((moving.shape[0], 3)),
+        np.empty(3),
+        np.empty(3),
+        np.empty(16),
+        np.empty(3),
+    )
+    for k in range(steps):
+        x, y, yaw = stands[k, 0], stands[k, 1], stands[k, 2]
+        c, s = math.cos(yaw), math.sin(yaw)
+        base[0, 0], base[0, 1], base[1, 0], base[1, 1] = c, -s, s, c
+        base[0, 3] = x + mount_forward * c
+        base[1, 3] = y + mount_forward * s
+        base[2, 3] = confs[k, 0] - base_inertial_z
+        link_frames_into(base, confs[k, 1:], revolute, hand, fingers, grasp, frames)
+        reach[k, 0] = base[0, 3]
+        reach[k, 1] = base[1, 3]
+        reach[k, 2] = frames[GRASP, 0, 3]
+        reach[k, 3] = frames[GRASP, 1, 3]
+        for g in range(count):
+            link = sphere_link[sphere_groups[g, 0]]
+            for r in range(3):
+                group_world[g, r] = (
+                    frames[link, r, 0] * bounds[g, 0]
+                    + frames[link, r, 1] * bounds[g, 1]
+                    + frames[link, r, 2] * bounds[g, 2]
+                    + frames[link, r, 3]
+                )
+            group_world[g, 3] = bounds[g, 3]
+            placed[g] = False
+        for m in range(held_boxes.shape[0]):
+            place_box(frames[GRASP], held_boxes[m], moving[m])
+        stand_frame[0, 0], stand_frame[0, 1], stand_frame[1, 0], stand_frame[1, 1] = c, -s, s, c
+        stand_frame[0, 3], stand_frame[1, 3] = x, y
+        for m in range(base_boxes.shape[0]):
+            place_box(stand_frame, base_boxes[m], moving[held_boxes.shape[0] + m])
+        _mark_step(
+            k,
+            state,
+            model,
+            arm_groups,
+            moving,
+            box_group,
+            boxes,
+            box_low,
+            box_high,
+            cylinders,
+            out,
+            work,
+        )
+    return out

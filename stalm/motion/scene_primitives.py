@@ -1,0 +1,185 @@
+"""The scene as rows of primitives for the compiled collision tests, and the robot's spheres.
+
+:class:`ScenePrimitives` turns a simulator's bodies into the rows
+:mod:`stalm.motion.collision_primitives` reads: the static scene (walls, counters, tables) once,
+the doors and objects as the simulator has them at each question, and the held object in the
+gripper's frame (a can as its box and its spheres, a grill as its boxes). Every body has a
+column, the index the candidate test marks.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+import pybullet as p
+
+from stalm.geometry.transforms import quat_yaw
+from stalm.motion import panda
+from stalm.motion.panda_spheres import panda_spheres
+from stalm.world import robot as robot_model
+from stalm.world.scene import Sim
+from stalm.world.spec import GRILL_HANDLE_REACH, ObjectSpec
+from stalm.world.state import Grasp
+
+
+def box_row(
+    centre: Sequence[float], half: Sequence[float], rotation: np.ndarray, column: int
+) -> np.ndarray:
+    row = np.empty(16)
+    row[:3] = centre
+    row[3:6] = half
+    row[6:15] = rotation.reshape(9)
+    row[15] = column
+    return row
+
+
+def yaw_rotation(yaw: float) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def object_boxes(obj: ObjectSpec) -> list[tuple[tuple[float, float, float], tuple[float, ...]]]:
+    """An object's collision boxes in its own frame (origin at its bottom centre): (centre,
+    half extents) each; a cylinder's is its bounding box."""
+    if obj.shape == "grill":
+        assert obj.size is not None
+        sx, sy, sz = obj.size
+        handle = (0.02, GRILL_HANDLE_REACH / 2, 0.02)
+        side = sy / 2 + GRILL_HANDLE_REACH / 2
+        return [
+            ((0.0, 0.0, sz / 2), (sx / 2, sy / 2, sz / 2)),
+            ((0.0, side, sz * 0.75), handle),
+            ((0.0, -side, sz * 0.75), handle),
+        ]
+    assert obj.radius is not None and obj.height is not None
+    return [((0.0, 0.0, obj.height / 2), (obj.radius, obj.radius, obj.height / 2))]
+
+
+def cylinder_spheres(obj: ObjectSpec) -> tuple[np.ndarray, float]:
+    """Spheres covering a cylinder-shaped object (a can, a bottle, a plate) in its frame
+    (origin at its bottom centre): centres along the axis and their common radius (a point of
+    the side at most half a spacing from a centre is within it; so are the caps' rims)."""
+    assert obj.radius is not None and obj.height is not None
+    count = max(2, math.ceil(obj.height / obj.radius) + 1)
+    spacing = obj.height / (count - 1)
+    centres = np.zeros((count, 3))
+    centres[:, 2] = np.linspace(0.0, obj.height, count)
+    return centres, math.hypot(obj.radius, spacing / 2) + 0.001
+
+
+class ScenePrimitives:
+    """One simulator's bodies as primitive rows (see the module docstring)."""
+
+    def __init__(self, sim: Sim) -> None:
+        self.sim = sim
+        bodies = sim.bodies
+        self.columns: list[int] = [
+            *bodies.walls.values(),
+            *bodies.regions.values(),
+            *bodies.doors.values(),
+            *bodies.objects.values(),
+        ]
+        self.column_of = {body: index for index, body in enumerate(self.columns)}
+        spec = sim.problem
+        static = []
+        for wall in spec.walls:
+            column = self.column_of[bodies.walls[wall.name]]
+            static.append(
+                box_row(wall.center, [s / 2 for s in wall.size], yaw_rotation(wall.yaw), column)
+            )
+        for region in spec.regions:
+            thickness = region.thickness if region.thickness is not None else region.top
+            centre = (region.center[0], region.center[1], region.top - thickness / 2)
+            half = (region.size[0] / 2, region.size[1] / 2, thickness / 2)
+            column = self.column_of[bodies.regions[region.name]]
+            static.append(box_row(centre, half, yaw_rotation(region.yaw), column))
+        self._static = np.array(static).reshape(-1, 16)
+        self._objects = {obj.name: obj for obj in spec.objects}
+        self.spheres = panda_spheres()
+        self.groups = self.spheres.groups
+        self.base_box = np.array(
+            [
+                box_row(
+                    (0.0, 0.0, robot_model.BASE_HEIGHT / 2),
+                    (robot_model.BASE_RADIUS, robot_model.BASE_RADIUS, robot_model.BASE_HEIGHT / 2),
+                    np.eye(3),
+                    0,
+                )
+            ]
+        )
+
+    def world(self, ignore: Iterable[int]) -> tuple[np.ndarray, np.ndarray]:
+        """Boxes and cylinders of every body but the robot's, as the simulator has them now;
+        the bodies in ``ignore`` (and a held object) get column -1 (never candidates)."""
+        sim = self.sim
+        skipped = set(ignore)
+        if sim.held is not None:
+            skipped.add(sim.bodies.objects[sim.held.obj])
+        boxes = [self._static] if self._static.size else []
+        cylinders = []
+        client = sim.client
+        for door in sim.problem.doors:
+            body = sim.bodies.doors[door.name]
+            column = -1 if body in skipped else self.column_of[body]
+            position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=client)
+            rotation = yaw_rotation(quat_yaw(orientation))
+            parts: list[tuple[tuple[float, float, float], tuple[float, ...]]] = [
+                (
+                    (door.width / 2, 0.0, door.height / 2),
+                    (door.width / 2, door.thickness / 2, door.height / 2),
+                ),
+                (
+                    (door.handle_distance, 0.0, door.handle_height),
+                    (0.02, door.thickness / 2 + 0.05, 0.06),
+                ),
+            ]
+            for centre, half in parts:
+                world = np.asarray(position) + rotation @ np.asarray(centre)
+                boxes.append(box_row(world, half, rotation, column)[None, :])
+        for name, obj in self._objects.items():
+            body = sim.bodies.objects[name]
+            column = -1 if body in skipped else self.column_of[body]
+            position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=client)
+            if obj.shape == "grill":
+                rotation = yaw_rotation(quat_yaw(orientation))
+                for centre, half in object_boxes(obj):
+                    world = np.asarray(position) + rotation @ np.asarray(centre)
+                    boxes.append(box_row(world, half, rotation, column)[None, :])
+            else:
+                assert obj.radius is not None and obj.height is not None
+                x, y, z = position
+                cylinders.append((x, y, z, z + obj.height, obj.radius, column))
+        box_rows = np.concatenate(boxes) if boxes else np.zeros((0, 16))
+        return box_rows, np.array(cylinders, dtype=float).reshape(-1, 6)
+
+    def with_held(self) -> tuple[np.ndarray, ...]:
+        """The spheres (links, centres, radii, groups) of the robot with the held object's
+        (a can's, in the grasp target's frame), its boxes in that frame, and each box's sphere
+        group (-1: none, a grill's)."""
+        spheres, groups = self.spheres, self.groups
+        held: Grasp | None = self.sim.held
+        if held is None:
+            empty = np.zeros(0, dtype=np.int64)
+            return spheres.link, spheres.centre, spheres.radius, groups, np.zeros((0, 16)), empty
+        obj = self._objects[held.obj]
+        grasp_rotation = np.array(p.getMatrixFromQuaternion(held.orientation)).reshape(3, 3)
+        rows = []
+        for centre, half in object_boxes(obj):
+            local = np.asarray(held.position) + grasp_rotation @ np.asarray(centre)
+            rows.append(box_row(local, half, grasp_rotation, 0))
+        if obj.shape == "grill":
+            box_groups = np.full(len(rows), -1, dtype=np.int64)
+            return spheres.link, spheres.centre, spheres.radius, groups, np.array(rows), box_groups
+        centres, radius = cylinder_spheres(obj)
+        local_centres = np.asarray(held.position) + centres @ grasp_rotation.T
+        start = len(spheres.link)
+        return (
+            np.concatenate([spheres.link, np.full(len(local_centres), panda.GRASP)]),
+            np.concatenate([spheres.centre, local_centres]),
+            np.concatenate([spheres.radius, np.full(len(local_centres), radius)]),
+            np.concatenate([groups, [[start, start + len(local_centres)]]]).astype(np.int64),
+            np.array(rows),
+            np.array([len(groups)], dtype=np.int64),
+        )

@@ -1,0 +1,186 @@
+"""The batched geometric core against its PyBullet reference.
+
+* forward kinematics and IK without PyBullet (:mod:`stalm.motion.panda`) against PyBullet's
+  own link frames;
+* the sphere model: no PyBullet contact on random configurations beside random boxes and cans
+  goes unflagged (it is conservative);
+* both colliders give the same bodies for the same motions, so the predicates (every literal,
+  every sampled motion's hits) and the samplers' draws are the same with either engine.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet as p
+import pytest
+
+from stalm.domain.mdp import Domain
+from stalm.domain.samplers import SamplerSettings
+from stalm.errors import StalmError
+from stalm.geometry.transforms import quat_from_matrix
+from stalm.motion import ik, panda
+from stalm.motion.colliders import BatchCollider, PyBulletCollider, make_collider
+from stalm.motion.panda_spheres import fit_panda_spheres, panda_spheres
+from stalm.predicates.engine import PredicateEngine
+from stalm.predicates.samples import PredicateSettings
+from stalm.world import robot as robot_model
+from stalm.world.problem import Problem
+from stalm.world.scene import Sim
+
+
+def _random_conf(rng: np.random.Generator) -> tuple[float, ...]:
+    return tuple(float(rng.uniform(lo, hi)) for lo, hi in robot_model.ARM_JOINT_LIMITS)
+
+
+def test_forward_kinematics_matches_pybullets_link_frames(problems: dict[str, Problem]) -> None:
+    rng = np.random.default_rng(0)
+    with Sim(problems["P2"].spec) as sim:
+        for _ in range(50):
+            stand = (
+                float(rng.uniform(-3, 3)),
+                float(rng.uniform(-3, 3)),
+                float(rng.uniform(-3, 3)),
+            )
+            lift, q = float(rng.uniform(*robot_model.LIFT_RANGE)), _random_conf(rng)
+            sim.set_arm(stand, lift, q)
+            frames = panda.link_frames(panda.base_frame(robot_model.arm_mount(stand, lift)), q)
+            for frame in range(1, len(panda.LINK_NAMES)):
+                link = frame - 1 if frame <= 7 else frame
+                state = p.getLinkState(
+                    sim.bodies.arm, link, computeForwardKinematics=True, physicsClientId=sim.client
+                )
+                rotation = np.array(p.getMatrixFromQuaternion(state[5])).reshape(3, 3)
+                assert np.allclose(frames[frame][:3, 3], state[4], atol=1e-6)
+                assert np.allclose(frames[frame][:3, :3], rotation, atol=1e-6)
+
+
+def test_ik_reaches_what_forward_kinematics_says(problems: dict[str, Problem]) -> None:
+    """Targets made by forward kinematics from random configurations near the nominal one:
+    IK reaches most, and PyBullet's own forward kinematics agrees with every solution."""
+    rng = np.random.default_rng(1)
+    stand = (0.0, 0.0, 0.0)
+    reached = 0
+    with Sim(problems["P2"].spec) as sim:
+        for _ in range(40):
+            lift = float(rng.uniform(0.8, 1.0))
+            q = np.clip(
+                np.array(ik.NOMINAL_ARM) + rng.normal(0, 0.4, 7),
+                [lo for lo, _ in robot_model.ARM_JOINT_LIMITS],
+                [hi for _, hi in robot_model.ARM_JOINT_LIMITS],
+            )
+            frame = panda.link_frames(panda.base_frame(robot_model.arm_mount(stand, lift)), q)[
+                panda.GRASP
+            ]
+            target = (tuple(frame[:3, 3]), quat_from_matrix(frame[:3, :3]))
+            solution = ik.refine(stand, target, lift, ik.NOMINAL_ARM)  # type: ignore[arg-type]
+            if solution is None:
+                continue
+            reached += 1
+            sim.set_arm(stand, solution.lift, solution.arm)
+            assert np.linalg.norm(np.subtract(sim.gripper_pose()[0], frame[:3, 3])) < 0.005
+    assert reached >= 36
+
+
+def test_the_sphere_model_misses_no_pybullet_contact(problems: dict[str, Problem]) -> None:
+    model = panda_spheres()
+    rng = np.random.default_rng(2)
+    contacts = 0
+    with Sim(problems["P2"].spec) as sim:
+        c = sim.client
+        shapes = [
+            p.createCollisionShape(p.GEOM_BOX, halfExtents=[0.05, 0.2, 0.02], physicsClientId=c),
+            p.createCollisionShape(p.GEOM_CYLINDER, radius=0.033, height=0.12, physicsClientId=c),
+        ]
+        probes = [p.createMultiBody(1.0, s, -1, [0, 0, -5], physicsClientId=c) for s in shapes]
+        for trial in range(1500):
+            lift, q = float(rng.uniform(0.6, 1.3)), _random_conf(rng)
+            sim.set_arm((0.0, 0.0, 0.0), lift, q)
+            frames = panda.link_frames(panda.base_frame(robot_model.arm_mount((0, 0, 0), lift)), q)
+            centres = np.einsum("nij,nj->ni", frames[model.link][:, :3, :3], model.centre)
+            centres += frames[model.link][:, :3, 3]
+            anchor = centres[rng.integers(len(centres))] + rng.normal(0, 0.06, 3)
+            tilt = p.getQuaternionFromEuler([*rng.uniform(-0.3, 0.3, 2), rng.uniform(-3, 3)])
+            probe = probes[trial % 2]
+            p.resetBasePositionAndOrientation(probe, anchor.tolist(), tilt, physicsClientId=c)
+            touched = {
+                point[3]
+                for point in p.getClosestPoints(sim.bodies.arm, probe, 0.0, physicsClientId=c)
+                if point[8] < -1e-3
+            }
+            if not touched:
+                continue
+            contacts += 1
+            rotation = np.array(p.getMatrixFromQuaternion(tilt)).reshape(3, 3)
+            local = (centres - anchor) @ rotation
+            if trial % 2 == 0:
+                outside = np.maximum(np.abs(local) - [0.05, 0.2, 0.02], 0.0)
+                distance = np.linalg.norm(outside, axis=1) - model.radius
+            else:
+                radial = np.maximum(np.hypot(local[:, 0], local[:, 1]) - 0.033, 0.0)
+                axial = np.maximum(np.abs(local[:, 2]) - 0.06, 0.0)
+                distance = np.hypot(radial, axial) - model.radius
+            flagged = {int(model.link[i]) for i in np.flatnonzero(distance < 0)}
+            frames_touched = {link + 1 if link <= 6 else link for link in touched}  # -1: link 0
+            assert frames_touched <= flagged, f"trial {trial}: a contact no sphere flags"
+    assert contacts > 700
+
+
+@pytest.mark.parametrize("name", ["P2", "P5"])
+def test_both_engines_give_the_same_predicates(problems: dict[str, Problem], name: str) -> None:
+    problem = problems[name]
+    domain = Domain.create(problem)
+    try:
+        caches = [
+            PredicateEngine(
+                problem, domain.sim, domain.base_planner, PredicateSettings(engine=engine)
+            ).compute(problem.initial_state)
+            for engine in ("pybullet", "batched")
+        ]
+    finally:
+        domain.close()
+    reference, batched = caches
+    assert batched.literals == reference.literals and batched.unreachable == reference.unreachable
+    assert {k: m.hits for k, m in batched.base.items()} == {
+        k: m.hits for k, m in reference.base.items()
+    }
+    for key, record in reference.picks.items():
+        assert [m.hits for m in batched.picks[key].motions] == [m.hits for m in record.motions]
+    for key, samples in reference.placements.items():
+        assert [s.motion.hits for s in batched.placements[key]] == [s.motion.hits for s in samples]
+
+
+def test_both_engines_draw_the_same_sampler_outcomes(problems: dict[str, Problem]) -> None:
+    """ψ with either engine: the same κ (or the same failure and blockers) for every legal
+    action of P2's first states, from the same seed."""
+    from tests.test_behaviour_unchanged import draw_record
+
+    rows = []
+    for engine in ("pybullet", "batched"):
+        domain = Domain.create(problems["P2"], sampler_settings=SamplerSettings(engine=engine))
+        try:
+            rows.append(draw_record(domain))
+        finally:
+            domain.close()
+    assert rows[0] == rows[1]
+
+
+def test_an_unknown_engine_is_named(problems: dict[str, Problem]) -> None:
+    with pytest.raises(StalmError, match=r"predicates\.engine must be one of batched, pybullet"):
+        PredicateSettings(engine="fast")  # type: ignore[arg-type]
+    with pytest.raises(StalmError, match=r"samplers\.engine"):
+        SamplerSettings(engine="gpu")  # type: ignore[arg-type]
+    with Sim(problems["P2"].spec) as sim:
+        assert isinstance(make_collider(sim, "batched"), BatchCollider)
+        assert isinstance(make_collider(sim, "pybullet"), PyBulletCollider)
+        with pytest.raises(ValueError, match="unknown collision engine"):
+            make_collider(sim, "cuda")
+
+
+@pytest.mark.slow
+def test_the_shipped_sphere_model_is_what_fitting_gives() -> None:
+    """``python -m stalm.motion.panda_spheres`` would write the file the package ships: the
+    fit is deterministic (rays on a Fibonacci sphere, k-means from principal-axis slices)."""
+    fitted, shipped = fit_panda_spheres(), panda_spheres()
+    assert np.array_equal(fitted.link, shipped.link)
+    assert np.allclose(fitted.centre, shipped.centre, atol=2e-6)
+    assert np.allclose(fitted.radius, shipped.radius, atol=2e-6)
