@@ -12,7 +12,9 @@ from rich.table import Table
 
 from stalm.cli.display import shown
 
-bench_app = typer.Typer(help="Benchmarks: speed figures of the world, predicates, LLM and search.")
+bench_app = typer.Typer(
+    help="Benchmarks: speed figures of the world, predicates, IK, LLM and search."
+)
 console = Console()
 
 
@@ -75,49 +77,98 @@ def bench_world(
 
 @bench_app.command("predicates")
 def bench_predicates(
-    problems: Annotated[list[str] | None, typer.Argument(help="Problems (default P1..P6).")] = None,
+    problems: Annotated[
+        list[str] | None,
+        typer.Argument(help="Problems (default P1..P6 and the 35-object benchmark layout)."),
+    ] = None,
     seed: Annotated[int, typer.Option(help="Seed for the actions taken.")] = 0,
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Also write the rows as JSON.")
     ] = None,
 ) -> None:
-    """Full predicate computation vs the cached update after an OPEN, a PICK and a PLACE."""
-    from stalm.experiments.bench_predicates import run
+    """The batched predicate engine beside its PyBullet reference: the full computation, the
+    relevance-limited one, and the cached updates after an OPEN, a PICK and a PLACE."""
+    from stalm.experiments.bench_predicates import default_problems, run
 
-    names = problems or ["P1", "P2", "P3", "P4", "P5", "P6"]
-    table = Table(title="predicates: full computation and cached updates (s)")
+    names = problems or default_problems()
+    table = Table(title="predicates: batched engine / PyBullet reference (s)")
     for column in (
         "problem",
+        "objects",
         "literals",
-        "full (s0)",
-        "OPEN upd/full",
-        "PICK upd/full",
-        "PLACE upd/full",
+        "full",
+        "relevant only",
+        "OPEN update",
+        "PICK update",
+        "PLACE update",
+        "same literals",
     ):
         table.add_column(column, justify="right")
+
+    def ratio(new: object, reference: object) -> str:
+        assert isinstance(new, float) and isinstance(reference, float)
+        return f"{new:.3f} / {reference:.3f} = {reference / new:.1f}x" if new > 0 else "-"
 
     def cell(entry: object) -> str:
         if not isinstance(entry, dict):
             return "-"
-        mark = "" if entry["equal"] else " (differs!)"
-        return f"{entry['update_s']:.3f} / {entry['full_s']:.2f} = {entry['speedup']:.0f}x{mark}"
+        mark = "" if entry["equal"] else " (differs from scratch!)"
+        return ratio(entry["update_s"], entry["reference_update_s"]) + mark
 
     rows = []
     with console.status("benchmarking predicates...") as status:
 
         def report(row: dict[str, object]) -> None:
             status.update(f"done {shown(row['problem'])}")
+            same = "yes" if row["literals_equal"] else f"no, {row['missed']} missed"
             table.add_row(
                 shown(row["problem"]),
+                str(row["objects"]),
                 str(row["literals"]),
-                f"{row['full_s']:.2f}",
+                ratio(row["full_s"], row["reference_full_s"]),
+                f"{row['relevant_full_s']:.2f} ({row['relevant_literals']} literals)",
                 cell(row.get("open")),
                 cell(row.get("pick")),
                 cell(row.get("place")),
+                same,
             )
             rows.append(row)
 
         run(names, seed, report)
+    console.print(table)
+    if json_out is not None:
+        json_out.write_text(json.dumps(rows, indent=2))
+
+
+@bench_app.command("ik")
+def bench_ik(
+    problems: Annotated[list[str] | None, typer.Argument(help="Problems (default P1..P6).")] = None,
+    targets: Annotated[int, typer.Option(help="Reachable targets per problem.")] = 200,
+    seed: Annotated[int, typer.Option(help="Seed of the targets and the IK restarts.")] = 0,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Also write the rows as JSON.")
+    ] = None,
+) -> None:
+    """The compiled IK beside PyBullet's own on the same targets: time per attempt, reached."""
+    from stalm.experiments.bench_ik import run
+
+    names = problems or ["P1", "P2", "P3", "P4", "P5", "P6"]
+    table = Table(title="IK: compiled / PyBullet's (the reference)")
+    for column in ("problem", "targets", "us per attempt", "reached"):
+        table.add_column(column, justify="right")
+
+    def report(row: dict[str, object]) -> None:
+        new, old = row["attempt_s"], row["reference_attempt_s"]
+        assert isinstance(new, float) and isinstance(old, float)
+        table.add_row(
+            shown(row["problem"]),
+            str(row["targets"]),
+            f"{new * 1e6:.0f} / {old * 1e6:.0f} = {old / new:.0f}x",
+            f"{row['reached']} / {row['reference_reached']}",
+        )
+
+    with console.status("benchmarking IK..."):
+        rows = run(names, targets, seed, report)
     console.print(table)
     if json_out is not None:
         json_out.write_text(json.dumps(rows, indent=2))

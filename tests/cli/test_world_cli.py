@@ -156,6 +156,13 @@ def test_benchmarks_run_and_print_their_tables(monkeypatch, capsys, tmp_path: Pa
     assert run_cli(monkeypatch, "bench", "search", "P2", "--sims", "2") == 0
     out = capsys.readouterr().out
     assert "simulations/s" in out and "13-step plan" in out
+    ik_rows = tmp_path / "ik.json"
+    args = ["bench", "ik", "P2", "--targets", "12", "--json", str(ik_rows)]
+    assert run_cli(monkeypatch, *args) == 0
+    ik_row = json.loads(ik_rows.read_text())[0]
+    assert ik_row["targets"] == 12 and ik_row["attempt_s"] > 0 and ik_row["reference_attempt_s"] > 0
+    assert 9 <= ik_row["reached"] <= 12 and 9 <= ik_row["reference_reached"] <= 12
+    assert "IK: compiled / PyBullet's" in capsys.readouterr().out
 
 
 @pytest.mark.slow
@@ -166,6 +173,9 @@ def test_predicate_benchmark_checks_the_cache(
     args = ["bench", "predicates", str(two_bottle_p2), "--json", str(rows)]
     assert run_cli(monkeypatch, *args) == 0
     row = json.loads(rows.read_text())[0]
-    assert row["full_s"] > 0 and row["literals"] > 10
+    assert row["full_s"] > 0 and row["reference_full_s"] > 0 and row["literals"] > 10
+    assert row["relevant_full_s"] > 0 and 0 < row["relevant_literals"] <= row["literals"]
+    assert row["literals_equal"] is True and row["missed"] == 0  # the engines agree
     for kind in ("open", "pick", "place"):
-        assert row[kind]["equal"] is True, kind
+        assert row[kind]["equal"] is True, kind  # the cached update equals a fresh computation
+        assert row[kind]["update_s"] > 0 and row[kind]["reference_update_s"] > 0
