@@ -15,6 +15,7 @@ import math
 from collections import defaultdict
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from decimal import ROUND_HALF_UP, Decimal
 from pathlib import Path
 from typing import Any
 
@@ -94,6 +95,13 @@ def _time_text(seconds: float | None) -> str:
     return "t/o" if seconds is None else f"{seconds:.1f}"
 
 
+def _paper_text(value: float, places: int) -> str:
+    """A number the paper prints in decimal, rounded half up as written (356.65 -> 356.7;
+    the float nearest 356.65 lies below it, so plain formatting would give 356.6)."""
+    exact = Decimal(repr(value)).quantize(Decimal(1).scaleb(-places), rounding=ROUND_HALF_UP)
+    return str(exact)
+
+
 def markdown_table(table: Table, *, paper: bool = False) -> str:
     """The paper's layout: two lines per row (success rate, time), a column per problem.
 
@@ -116,8 +124,9 @@ def markdown_table(table: Table, *, paper: bool = False) -> str:
             if cell.errors:
                 rate += f", {cell.errors} err"
             if published is not None:
-                rate += f" [{published[0]:.2f}]"
-                time += f" [{_time_text(published[1])}]"
+                rate += f" [{_paper_text(published[0], 2)}]"
+                paper_time = published[1]
+                time += f" [{'t/o' if paper_time is None else _paper_text(paper_time, 1)}]"
             rates.append(rate)
             times.append(time)
         lines.append(f"| {row} | Success rate | " + " | ".join(rates) + " |")

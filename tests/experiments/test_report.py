@@ -110,3 +110,16 @@ def test_write_report_saves_markdown_csv_and_plots(tmp_path: Path) -> None:
     }
     assert (tmp_path / "t-success.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert b"<svg" in (tmp_path / "t-failures.svg").read_bytes()[:400]
+
+
+def test_the_papers_numbers_are_rounded_as_the_paper_writes_them() -> None:
+    """356.65 and 165.85 lie between floats; the paper's decimals round half up."""
+    records = [
+        _record("7", "uct-hcount", "P5", False, 30.0),
+        _record("10", "uct-hcount", "P6", False, 30.0),
+        _record("8", "stalm", "P6", False, 30.0),
+        _record("9", "stalm", "P4", False, 30.0),
+    ]
+    text = markdown_table(build_table(records), paper=True)
+    assert "t/o [356.7]" in text and "t/o [t/o]" in text  # Hcount's P5; its P6 timed out
+    assert "t/o [165.9]" in text and "[0.96]" in text  # STaLM's P6 time and P4 success
