@@ -1,8 +1,9 @@
 """The import contracts of ``pyproject.toml``, checked by import-linter, so ``pytest`` (and with
 it ``.ci/run``) fails on an upward or sideways import or an import circle.
 
-The layers, top to bottom: api and cli; experiments and viz; planners; llm and search; domain
-and predicates; motion; world; geometry. Packages on one line may not import each other.
+The layers, top to bottom: api and cli; experiments and viz; generate; planners; llm and
+search; domain and predicates; motion; world; geometry. Packages on one line may not import
+each other.
 """
 
 from __future__ import annotations

@@ -16,6 +16,7 @@ from rich.console import Console
 from stalm.cli import (
     bench_commands,
     experiment_commands,
+    generate_commands,
     llm_commands,
     predicate_commands,
     rerun_commands,
@@ -41,6 +42,7 @@ for module in (
     solve_commands,
     rerun_commands,
     view_commands,
+    generate_commands,
 ):
     app.add_typer(module.commands)
 app.add_typer(bench_commands.bench_app, name="bench")

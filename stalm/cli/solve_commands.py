@@ -205,6 +205,17 @@ def solve_command(
         raise typer.Exit(1)
 
 
+def _recorded_problem(result_file: Path, data: dict[str, object]) -> str:
+    """The problem a result names: a problem file named by its file name alone (a generated
+    problem's witness names its problem so) is looked for in the result's own folder first,
+    so a suite copied elsewhere still replays; anything else is a name or path as given."""
+    named = str(data.get("problem", ""))
+    beside = result_file.parent / named
+    if Path(named).name == named and Path(named).suffix in (".yaml", ".yml") and beside.is_file():
+        return str(beside)
+    return named
+
+
 @commands.command("replay")
 def replay_command(
     result_file: Annotated[
@@ -228,7 +239,7 @@ def replay_command(
         raise StalmError(f"{result_file}: cannot read a result ({error})") from None
     if not isinstance(data, dict):
         raise StalmError(f"{result_file}: not a stalm result (not a JSON object)")
-    loaded = load_problem(problem or str(data.get("problem", "")))
+    loaded = load_problem(problem or _recorded_problem(result_file, data))
     report = replay_result_json(loaded, data)
     for warning in report.warnings:
         console.print(f"[yellow]warning:[/] {shown(warning)}", highlight=False, soft_wrap=True)

@@ -1,0 +1,96 @@
+"""``stalm generate``: problems with a witness plan that replays, one or a suite of them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from stalm.cli.display import shown
+from stalm.errors import StalmError
+
+commands = typer.Typer()
+"""The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
+
+console = Console(stderr=True)
+
+
+def _sizes(text: str) -> tuple[int, ...]:
+    try:
+        sizes = tuple(int(part) for part in text.split(",") if part.strip())
+    except ValueError:
+        raise StalmError(f"--sizes must be numbers separated by commas, got {text!r}") from None
+    if not sizes or min(sizes) < 1:
+        raise StalmError(f"--sizes must be positive numbers of objects, got {text!r}")
+    return sizes
+
+
+@commands.command("generate")
+def generate_command(
+    out: Annotated[
+        Path,
+        typer.Option(
+            "-o",
+            "--out",
+            help="The problem file to write (its witness goes beside it), or with "
+            "--suite the folder.",
+        ),
+    ],
+    objects: Annotated[int, typer.Option(help="Movable objects (one problem).")] = 12,
+    goals: Annotated[int, typer.Option(help="Goal objects (1-4).")] = 2,
+    seed: Annotated[int, typer.Option(help="Seed: the same seed, the same file.")] = 0,
+    occlusion_depth: Annotated[
+        int, typer.Option(help="Occluders in front of each goal object (0-3).")
+    ] = 1,
+    door: Annotated[
+        str, typer.Option(help="'closed' (the kitchen door must be opened) or 'open' (no door).")
+    ] = "closed",
+    trap: Annotated[
+        bool,
+        typer.Option(help="P5's trap: cans, then the grill, onto the walled counter (goals 2-3)."),
+    ] = False,
+    layout: Annotated[str, typer.Option(help="The static scene: kitchen-hall.")] = "kitchen-hall",
+    suite: Annotated[
+        str | None, typer.Option(help="Make a suite of this name in the folder --out.")
+    ] = None,
+    sizes: Annotated[
+        str, typer.Option(help="With --suite: object counts, comma-separated.")
+    ] = "8,16,32,64",
+    per_size: Annotated[int, typer.Option(help="With --suite: problems per size.")] = 20,
+) -> None:
+    """Write a solvable problem (or a suite): a scene, objects behind chains of occluders, a
+    goal, and a witness plan grounded and replayed in the simulator."""
+    from stalm.generate.arrange import Knobs
+    from stalm.generate.problem_maker import generate_problem, problem_name
+    from stalm.generate.suite import generate_suite, write_generated
+
+    if door not in ("closed", "open"):
+        raise StalmError(f"--door must be 'closed' or 'open', got {door!r}")
+    if suite is not None:
+        counts = _sizes(sizes)
+        knobs = Knobs(max(counts), goals, occlusion_depth, door == "closed", trap)
+        with console.status("generating the suite...") as status:
+            made = generate_suite(
+                suite,
+                counts,
+                per_size,
+                seed,
+                out,
+                knobs,
+                progress=lambda message: status.update(shown(message)),
+                layout=layout,
+            )
+        typer.echo(f"wrote {len(made.problems)} problems and {out / 'index.json'}")
+        return
+    if out.suffix not in (".yaml", ".yml"):
+        raise StalmError(f"-o {out}: a problem file ends in .yaml")
+    knobs = Knobs(objects, goals, occlusion_depth, door == "closed", trap)
+    with console.status("generating (grounding the witness in the simulator)..."):
+        generated = generate_problem(
+            knobs, seed, problem_name(out.stem), layout=layout, source=str(out)
+        )
+    witness = write_generated(generated, out)
+    length = generated.problem.spec.optimal_length
+    typer.echo(f"wrote {out} and {witness} (a {length}-action witness)")

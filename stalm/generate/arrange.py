@@ -1,0 +1,314 @@
+"""Where a generated problem's objects start, what its goal is, and the task plan that solves it.
+
+Objects stand on a grid of slots per region, in the region's frame (``u`` away from the
+robot's standing pose, ``v`` to its left; rows :data:`ROW` apart, columns :data:`COLUMN`
+apart). A *chain* is a goal object in the back row of a column with ``depth`` occluders in
+front of it, in the rows before it, as P3's milk stands behind its bottles: the robot must
+move them, front first, before it can reach the goal object. Each goal object goes to a
+region in the other room (so a closed door must be opened first); with two goals or more the
+last one goes beside a reference object standing there (``left_of``), as P2's salter goes
+right of its bottle. With ``trap`` the goal is P5's: cans and then the grill onto the walled
+counter, where the grill fits only at the front and, standing there, leaves no room. The
+other objects are clutter, on free slots anywhere but the walled counter; the front half of
+each goal region and the front rows of the regions occluders are put on stay free.
+
+The task plan that solves it (:class:`Arrangement.plan`) follows from the construction: open
+the door, then for each chain its occluders onto other regions, front first, then the goal
+object to its goal; the trap's grill last. :mod:`stalm.generate.witness` grounds it in the
+simulator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from stalm.domain.actions import DiscreteAction, Open, Pick, Place
+from stalm.errors import StalmError
+
+ROW = 0.09
+"""Metres between rows of slots (along ``u``): a bottle's diameter and 2 cm."""
+COLUMN = 0.11
+"""Metres between columns of slots (along ``v``): room for the fingers between two objects."""
+EDGE = 0.036
+"""Clearance from a slot's centre to the usable area's edge: the largest object's radius."""
+CAN = {"shape": "cylinder", "radius": 0.033, "height": 0.12}
+BOTTLE = {"shape": "cylinder", "radius": 0.035, "height": 0.25}
+GRILL = {"shape": "grill", "size": [0.16, 0.42, 0.18]}
+GRILL_START = ("counter2", (-0.1, 0.0))
+"""Where the trap's grill starts: P5's, the front of counter2."""
+DUMP = "?"
+"""Stands for an occluder's region in a chain's steps until the regions are known."""
+MAX_DEPTH = 3
+"""Deepest chain: a counter holds four rows."""
+UNUSED_FOR_GOALS = frozenset({"shelf_lower"})
+"""Regions no chain starts on and no goal goes to (the shelf is at 1.6 m): clutter only."""
+PALETTE = (
+    (0.8, 0.15, 0.15, 1.0),
+    (0.15, 0.55, 0.2, 1.0),
+    (0.2, 0.35, 0.8, 1.0),
+    (0.85, 0.65, 0.1, 1.0),
+    (0.55, 0.25, 0.6, 1.0),
+    (0.1, 0.6, 0.65, 1.0),
+    (0.45, 0.28, 0.12, 1.0),
+    (0.92, 0.92, 0.92, 1.0),
+)
+
+
+@dataclass(frozen=True)
+class Knobs:
+    """What ``stalm generate`` is asked for."""
+
+    objects: int
+    goals: int = 2
+    occlusion_depth: int = 1
+    door: bool = True
+    trap: bool = False
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.goals <= 4:
+            raise StalmError(f"--goals must be 1 to 4, got {self.goals}")
+        if not 0 <= self.occlusion_depth <= MAX_DEPTH:
+            raise StalmError(
+                f"--occlusion-depth must be 0 to {MAX_DEPTH} (a counter holds {MAX_DEPTH + 1} "
+                f"rows), got {self.occlusion_depth}"
+            )
+        if self.trap and not 2 <= self.goals <= 3:
+            raise StalmError(
+                "--trap puts the grill and one or two cans on the walled counter: --goals must "
+                f"be 2 or 3, got {self.goals}"
+            )
+        if self.objects < self.least_objects:
+            raise StalmError(
+                f"--objects {self.objects} is too few for {self.goals} goals "
+                f"{self.occlusion_depth} deep: at least {self.least_objects}"
+            )
+        if self.objects > 120:
+            raise StalmError(f"--objects must be at most 120, got {self.objects}")
+
+    @property
+    def relative(self) -> bool:
+        """Does the last goal go beside a reference object?"""
+        return self.goals >= 2 and not self.trap
+
+    @property
+    def least_objects(self) -> int:
+        chains = self.goals - (1 if self.trap else 0)
+        return chains * (1 + self.occlusion_depth) + (1 if self.trap else 0) + self.relative
+
+
+@dataclass
+class Slots:
+    """A region's free slots, ``(row, column) -> (u, v)``; row 0 is the back row."""
+
+    region: dict[str, Any]
+    free: dict[tuple[int, int], tuple[float, float]] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, region: dict[str, Any]) -> Slots:
+        ux, uy = region.get("usable") or region["size"]
+        rows = int((ux - 2 * EDGE) // ROW) + 1
+        columns = int((uy - 2 * EDGE) // COLUMN) + 1
+        back = ux / 2 - EDGE
+        left = (columns - 1) * COLUMN / 2
+        return cls(
+            region,
+            {
+                (r, c): (round(back - r * ROW, 4), round(left - c * COLUMN, 4))
+                for r in range(rows)
+                for c in range(columns)
+            },
+        )
+
+    @property
+    def rows(self) -> int:
+        return 1 + max((r for r, _ in self.free), default=-1)
+
+    def column_free(self, column: int, rows: int) -> bool:
+        return all((r, column) in self.free for r in range(rows))
+
+    def take(self, key: tuple[int, int]) -> tuple[float, float]:
+        return self.free.pop(key)
+
+
+@dataclass(frozen=True)
+class Arrangement:
+    """A generated problem's objects and goal (problem-file fields) and its solving task plan."""
+
+    objects: list[dict[str, Any]]
+    goal: list[list[str]]
+    plan: tuple[DiscreteAction, ...]
+    dumps: tuple[str, ...]
+    """Regions an occluder may be put on (no goal goes there, and no chain starts there where
+    the scene has such regions), most free room first."""
+
+
+def arrange(
+    regions: list[dict[str, Any]], knobs: Knobs, rng: np.random.Generator, door: str | None
+) -> Arrangement:
+    """Objects, goal and task plan for ``knobs`` on ``regions`` (see the module docstring)."""
+    slots = {r["name"]: Slots.of(r) for r in regions}
+    rooms = {r["name"]: r["room"] for r in regions}
+    objects: list[dict[str, Any]] = []
+    names = _Names()
+
+    def put(kind: dict[str, Any], prefix: str, region: str, at: tuple[float, float]) -> str:
+        name = names.next(prefix)
+        color = PALETTE[len(objects) % len(PALETTE)]
+        objects.append({"name": name, **kind, "on": region, "at": list(at), "color": list(color)})
+        return name
+
+    walled = next((r["name"] for r in regions if r["name"] == "walled_counter"), None)
+    grill_region = GRILL_START[0] if knobs.trap else None
+    usable = [
+        name
+        for name in slots
+        if name not in UNUSED_FOR_GOALS and name not in (walled, grill_region)
+    ]
+    chains = knobs.goals - (1 if knobs.trap else 0)
+    goal: list[list[str]] = []
+    steps: list[list[DiscreteAction]] = []
+    goal_regions: set[str] = {walled} if knobs.trap and walled else set()
+    sources_used: set[str] = set()
+    grill = None
+    if knobs.trap:
+        if walled is None:
+            raise StalmError("the layout has no walled counter for --trap")
+        grill = put(GRILL, "grill", GRILL_START[0], GRILL_START[1])
+        slots[GRILL_START[0]].free.clear()  # the grill fills counter2's front; nothing else goes
+    for index in range(chains):
+        sources = [
+            s
+            for s in usable
+            if s not in goal_regions
+            and slots[s].rows > knobs.occlusion_depth
+            and any(slots[s].column_free(c, knobs.occlusion_depth + 1) for c in _columns(slots[s]))
+        ]
+        if not sources:
+            raise StalmError(f"no region has room for {chains} chains {knobs.occlusion_depth} deep")
+        source = sources[int(rng.integers(len(sources)))]
+        columns = [
+            c
+            for c in _columns(slots[source])
+            if slots[source].column_free(c, knobs.occlusion_depth + 1)
+        ]
+        column = columns[int(rng.integers(len(columns)))]
+        target = (
+            walled
+            if knobs.trap
+            else _goal_region(usable, rooms, source, goal_regions, sources_used, rng)
+        )
+        assert target is not None
+        goal_regions.add(target)
+        sources_used.add(source)
+        obj = put(CAN, "can", source, slots[source].take((0, column)))
+        occluders = [
+            put(
+                BOTTLE if rng.random() < 0.5 else CAN,
+                "blocker",
+                source,
+                slots[source].take((r, column)),
+            )
+            for r in range(1, knobs.occlusion_depth + 1)
+        ]
+        for row in range(knobs.occlusion_depth + 1):  # the chain's sides stay clear: only
+            for side in (column - 1, column + 1):  # its own occluders stand in the way
+                slots[source].free.pop((row, side), None)
+        chain_steps: list[DiscreteAction] = []
+        for occluder in reversed(occluders):  # the front one first; its region comes below
+            chain_steps += [Pick(occluder), Place(occluder, "on", DUMP)]
+        chain_steps.append(Pick(obj))
+        if knobs.relative and index == chains - 1:
+            ref_slot = _middle_slot(slots[target])
+            ref = put(BOTTLE, "reference", target, slots[target].take(ref_slot))
+            goal += [[obj, "on", target], [obj, "left_of", ref]]
+            chain_steps.append(Place(obj, "left_of", ref))
+        else:
+            goal.append([obj, "on", target])
+            chain_steps.append(Place(obj, "on", target))
+        steps.append(chain_steps)
+    if grill is not None:
+        goal.append([grill, "on", walled or ""])
+        steps.append([Pick(grill), Place(grill, "on", walled or "")])
+    # occluders go where no goal goes, where no chain starts if there is such a region
+    spare = [n for n in slots if n not in goal_regions and n not in UNUSED_FOR_GOALS]
+    spare = [n for n in spare if n not in sources_used] or spare
+    dumps = tuple(sorted(spare, key=lambda n: (-len(slots[n].free), n)))
+    if not dumps:
+        raise StalmError("no region is left to put occluders on")
+    put_down = [dumps[i % len(dumps)] for i in range(chains * knobs.occlusion_depth)]
+    # kept free of clutter, front rows first (nothing to reach over): three slots for each
+    # occluder put down on a region, the front half of a goal region, all the walled counter
+    kept: set[tuple[str, tuple[int, int]]] = set()
+    for name, region_slots in slots.items():
+        wanted = 3 * put_down.count(name)
+        if name in goal_regions:
+            wanted = len(region_slots.free) if name == walled else len(region_slots.free) // 2
+        front_first = sorted(region_slots.free, key=lambda key: (-key[0], key[1]))
+        kept |= {(name, key) for key in front_first[:wanted]}
+    for _ in range(knobs.objects - len(objects)):
+        open_slots = [
+            (name, key)
+            for name in sorted(slots)
+            for key in sorted(slots[name].free)
+            if (name, key) not in kept
+        ]
+        if not open_slots:
+            raise StalmError(f"--objects {knobs.objects}: no room left for more clutter")
+        region, key = open_slots[int(rng.integers(len(open_slots)))]
+        kind = BOTTLE if rng.random() < 0.4 else CAN
+        put(kind, "item", region, slots[region].take(key))
+    plan: list[DiscreteAction] = [Open(door)] if door else []
+    dump = iter(put_down)
+    for chain_steps in steps:
+        for step in chain_steps:
+            if isinstance(step, Place) and step.ref == DUMP:
+                step = Place(step.obj, "on", next(dump))
+            plan.append(step)
+    return Arrangement(objects, goal, tuple(plan), dumps)
+
+
+def _columns(slots: Slots) -> list[int]:
+    return sorted({c for _, c in slots.free})
+
+
+def _middle_slot(slots: Slots) -> tuple[int, int]:
+    """The free slot nearest the middle of the region (the first of equals, by key)."""
+    if not slots.free:
+        raise StalmError(f"no free slot on {slots.region['name']} for the goal's reference")
+    return min(slots.free, key=lambda key: (abs(slots.free[key][0]) + abs(slots.free[key][1]), key))
+
+
+def _goal_region(
+    usable: list[str],
+    rooms: dict[str, str],
+    source: str,
+    goals: set[str],
+    sources: set[str],
+    rng: np.random.Generator,
+) -> str:
+    """A region that is no goal yet, preferably in the other room than ``source`` and where
+    no chain starts (with many goals, another chain's region)."""
+    free = [n for n in usable if n != source and n not in goals]
+    for choices in (
+        [n for n in free if rooms[n] != rooms[source] and n not in sources],
+        [n for n in free if n not in sources],
+        [n for n in free if rooms[n] != rooms[source]],
+        free,
+    ):
+        if choices:
+            return choices[int(rng.integers(len(choices)))]
+    raise StalmError("no region left for another goal")
+
+
+class _Names:
+    """can_01, can_02, bottle_01, ... in the order asked for."""
+
+    def __init__(self) -> None:
+        self.counts: dict[str, int] = {}
+
+    def next(self, prefix: str) -> str:
+        self.counts[prefix] = self.counts.get(prefix, 0) + 1
+        return f"{prefix}_{self.counts[prefix]:02d}"
