@@ -40,7 +40,9 @@ def _names(text: str | None) -> tuple[str, ...] | None:
 
 @commands.command("experiment")
 def experiment_command(
-    name: Annotated[str, typer.Argument(help="table2, table3, table4 or figure5.")],
+    name: Annotated[
+        str, typer.Argument(help="table2, table3, table4, figure5, or scale (with --suite).")
+    ],
     problems: Annotated[
         str | None, typer.Option(help="Comma-separated problems (default P1..P6).")
     ] = None,
@@ -57,6 +59,10 @@ def experiment_command(
     llm: Annotated[
         list[str] | None,
         typer.Option(help="Model for the model-based rows; repeat it for table3's two models."),
+    ] = None,
+    suite: Annotated[
+        Path | None,
+        typer.Option(help="scale: the folder of a generated suite (stalm generate --suite)."),
     ] = None,
     seed: Annotated[int, typer.Option(help="Master seed; trial seeds derive from it.")] = 0,
     budget_scale: Annotated[
@@ -110,6 +116,7 @@ def experiment_command(
         budget_scale=budget_scale,
         time_budget_s=time_budget,
         base=base,
+        suite=suite,
     )
     _check_model_rows(plan.arms)
     specs = trial_specs(plan)

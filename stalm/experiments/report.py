@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from stalm.experiments.paper_tables import TABLE2
+from stalm.experiments.scale_report import has_sizes, markdown_scale, plot_scale, scale_cells
 from stalm.search.concretize import FAILURE_KINDS
 
 
@@ -295,9 +296,15 @@ def write_report(
     """Write ``name``.md, ``name``.csv and the plots into ``out_dir``; return the Markdown."""
     table = build_table(records)
     shares = failure_shares(records)
-    text = "## Success rate and mean planning time of successes\n\n"
-    text += markdown_table(table, paper=paper)
-    if paper:
+    sized = has_sizes(records)
+    if sized:  # a scale run: by object count, not one column per generated problem
+        cells = scale_cells(records)
+        text = "## Success rate and mean time of successes by number of objects\n\n"
+        text += markdown_scale(cells)
+    else:
+        text = "## Success rate and mean planning time of successes\n\n"
+        text += markdown_table(table, paper=paper)
+    if paper and not sized:
         text += "\nIn brackets: the paper's Table 2 (50 trials, GPT-4-turbo, full budgets).\n"
     text += "\n## Failed task plans by kind (Figure 5)\n\n" + markdown_failures(shares)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -307,6 +314,8 @@ def write_report(
     csv_path.write_text(csv_table(table), encoding="utf-8")
     plots = []
     for suffix in formats:
+        if sized:
+            plots.append(plot_scale(cells, out_dir / f"{name}-scale.{suffix}"))
         plots.append(plot_success_over_time(table, out_dir / f"{name}-success.{suffix}"))
         if shares:
             plots.append(plot_failures(shares, out_dir / f"{name}-failures.{suffix}"))

@@ -1,4 +1,5 @@
-"""The paper's experiments as lists of trials: Table 2, Table 3, Table 4 and Figure 5.
+"""The paper's experiments as lists of trials: Table 2, Table 3, Table 4 and Figure 5; and
+``scale``, this implementation's: planners on a suite of generated problems by size.
 
 An :class:`ExperimentPlan` fixes the arms (rows), problems (columns), trial count, master seed
 and budgets; :func:`trial_specs` expands it into one :class:`TrialSpec` per (arm, problem,
@@ -9,7 +10,8 @@ P6) times ``budget_scale``, unless ``time_budget_s`` fixes one for all.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 from stalm.errors import StalmError
 from stalm.experiments.trials import Arm, TrialSpec, check_problem_name, derive_seed
@@ -17,7 +19,9 @@ from stalm.llm.prompt import PromptOptions
 from stalm.planners.registry import RunSettings, planner_entry
 from stalm.planners.settings_io import with_values
 
-EXPERIMENTS = ("table2", "table3", "table4", "figure5")
+EXPERIMENTS = ("table2", "table3", "table4", "figure5", "scale")
+SCALE_PLANNERS = ("stalm-symbolic", "uct", "pddlstream-adaptive")
+"""``scale``'s rows unless ``--planners`` names others: no model needed."""
 TABLE2_PLANNERS = (
     "uct",
     "uct-hcount",
@@ -80,6 +84,9 @@ class ExperimentPlan:
     master_seed: int = 0
     budget_scale: float = 1.0
     time_budget_s: float | None = None
+    problem_fields: dict[str, dict[str, object]] = field(default_factory=dict)
+    """Fields each problem's records carry besides the usual ones (a suite's name and the
+    problem's number of objects), by problem as ``problems`` names it."""
 
     def __post_init__(self) -> None:
         if self.trials < 1:
@@ -114,6 +121,7 @@ def build_plan(
     budget_scale: float = 1.0,
     time_budget_s: float | None = None,
     base: RunSettings | None = None,
+    suite: Path | None = None,
 ) -> ExperimentPlan:
     """The arms of experiment ``name`` (see the module docstring) with the caller's choices.
 
@@ -121,6 +129,9 @@ def build_plan(
     * table3: STaLM and STaLM w/o UCT for each model in ``llms`` (the paper: two models).
     * table4: STaLM with the four prompt ablations (occlusion predicates x challenges).
     * figure5: STaLM, whose records carry the failure kinds of every task plan it tried.
+    * scale: ``planners`` (default :data:`SCALE_PLANNERS`) on every problem of the generated
+      ``suite`` (a folder written by ``stalm generate --suite``); each record carries
+      ``suite`` and ``objects``.
     """
     if name not in EXPERIMENTS:
         raise StalmError(f"unknown experiment '{name}' (available: {', '.join(EXPERIMENTS)})")
@@ -131,6 +142,23 @@ def build_plan(
         time_budget_s = base.budget.time_budget_s
     base = replace(base, budget=replace(base.budget, time_budget_s=None))
     arms: list[Arm]
+    fields: dict[str, dict[str, object]] = {}
+    if (name == "scale") != (suite is not None):
+        raise StalmError(
+            "--suite DIR goes with the scale experiment (and it needs one)"
+            if suite is not None
+            else "the scale experiment runs a suite of generated problems: give --suite DIR"
+        )
+    if suite is not None:
+        from stalm.generate.suite import read_suite
+
+        if problems:
+            raise StalmError("--problems and --suite exclude each other")
+        read = read_suite(suite)
+        problems = tuple(str(read.path(p)) for p in read.problems)
+        fields = {
+            str(read.path(p)): {"suite": read.name, "objects": p.objects} for p in read.problems
+        }
     if name == "table2":
         arms = [arm_for(p, base) for p in planners or TABLE2_PLANNERS]
     elif name == "table3":
@@ -152,6 +180,8 @@ def build_plan(
                     ]
                 )
                 arms.append(arm_for("stalm", replace(base, prompt=prompt), label))
+    elif name == "scale":
+        arms = [arm_for(p, base) for p in planners or SCALE_PLANNERS]
     else:
         arms = [arm_for(p, base) for p in planners or ("stalm",)]
     labels = [arm.label for arm in arms]
@@ -165,6 +195,7 @@ def build_plan(
         master_seed=master_seed,
         budget_scale=budget_scale,
         time_budget_s=time_budget_s,
+        problem_fields=fields,
     )
 
 
@@ -187,6 +218,7 @@ def trial_specs(plan: ExperimentPlan) -> list[TrialSpec]:
                         trial=trial,
                         seed=derive_seed(plan.master_seed, canonical, trial),
                         time_budget_s=round(budget * plan.budget_scale, 3),
+                        fields=tuple(plan.problem_fields.get(problem, {}).items()),
                     )
                 )
     return specs

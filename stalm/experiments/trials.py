@@ -64,6 +64,9 @@ class TrialSpec:
     trial: int
     seed: int
     time_budget_s: float
+    fields: tuple[tuple[str, object], ...] = ()
+    """Fields the record carries besides the usual ones (a suite's name, the problem's
+    number of objects); they describe the problem, so they are not in the key."""
 
     @property
     def key(self) -> str:
@@ -144,6 +147,7 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
         "host": socket.gethostname(),
         "versions": versions(),
         "started_at": started,
+        **dict(spec.fields),
     }
     with tempfile.TemporaryDirectory(prefix="stalm-trial-") as folder:
         problem_file = Path(folder) / f"{spec.problem}.yaml"

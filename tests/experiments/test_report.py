@@ -123,3 +123,18 @@ def test_the_papers_numbers_are_rounded_as_the_paper_writes_them() -> None:
     text = markdown_table(build_table(records), paper=True)
     assert "t/o [356.7]" in text and "t/o [t/o]" in text  # Hcount's P5; its P6 timed out
     assert "t/o [165.9]" in text and "[0.96]" in text  # STaLM's P6 time and P4 success
+
+
+def test_a_scale_run_is_reported_by_object_count_with_the_log_log_slope(tmp_path: Path) -> None:
+    from stalm.experiments.scale_report import scale_cells, slope
+
+    records = [_record(str(n), "row", f"g{n}", True, 0.5 * n, objects=n) for n in (8, 16, 32)] + [
+        _record("f", "row", "g64", False, 600.0, objects=64)
+    ]
+    cells = scale_cells(records)
+    assert cells[("row", 64)].successes == 0 and cells[("row", 8)].mean_success_time_s == 4.0
+    assert abs(slope([(8, 4.0), (16, 8.0), (32, 16.0)]) - 1.0) < 1e-9  # linear in objects
+    assert slope([(8, 4.0)]) is None
+    text, files = write_report(records, tmp_path, name="s")
+    assert "| row | 1/1, 4.0 s | 1/1, 8.0 s | 1/1, 16.0 s | 0/1, t/o | 1.00 |" in text
+    assert any(path.name == "s-scale.png" for path in files.plots)

@@ -1,0 +1,110 @@
+"""The scale experiment's report: success rate and mean time of successes by object count.
+
+Records of ``stalm experiment scale`` carry ``objects`` (the problem's number of movable
+objects) and ``suite``. Per planner row and object count: trials, successes and the mean time
+of the successes; and the slope of log(mean time) against log(objects), fitted by least squares
+over the sizes with a success (1: time grows linearly with the objects, 2: quadratically).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from collections import defaultdict
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+
+@dataclass(frozen=True)
+class ScaleCell:
+    trials: int
+    successes: int
+    mean_success_time_s: float | None
+
+
+def has_sizes(records: Iterable[dict[str, Any]]) -> bool:
+    """Do the records come from a scale experiment (they carry ``objects``)?"""
+    return any(isinstance(r.get("objects"), int) for r in records)
+
+
+def scale_cells(records: Iterable[dict[str, Any]]) -> dict[tuple[str, int], ScaleCell]:
+    """(row, object count) -> its cell; records without ``objects`` are left out."""
+    grouped: dict[tuple[str, int], list[dict[str, Any]]] = defaultdict(list)
+    for record in records:
+        if isinstance(record.get("objects"), int):
+            grouped[(str(record["arm"]), record["objects"])].append(record)
+    cells = {}
+    for key, group in grouped.items():
+        times = [float(r["time_s"]) for r in group if r.get("success")]
+        cells[key] = ScaleCell(len(group), len(times), statistics.mean(times) if times else None)
+    return cells
+
+
+def slope(points: list[tuple[int, float]]) -> float | None:
+    """Least-squares slope of log(time) against log(objects) (None: fewer than two sizes)."""
+    if len({n for n, _ in points}) < 2:
+        return None
+    xs = [math.log(n) for n, _ in points]
+    ys = [math.log(max(t, 1e-3)) for _, t in points]
+    mean_x, mean_y = statistics.mean(xs), statistics.mean(ys)
+    spread = sum((x - mean_x) ** 2 for x in xs)
+    return sum((x - mean_x) * (y - mean_y) for x, y in zip(xs, ys, strict=True)) / spread
+
+
+def markdown_scale(cells: dict[tuple[str, int], ScaleCell]) -> str:
+    rows = sorted({row for row, _ in cells})
+    sizes = sorted({size for _, size in cells})
+    header = "| row | " + " | ".join(f"{n} objects" for n in sizes) + " | slope (log-log) |"
+    lines = [header, "| --- |" + " --- |" * (len(sizes) + 1)]
+    for row in rows:
+        texts, points = [], []
+        for size in sizes:
+            cell = cells.get((row, size))
+            if cell is None:
+                texts.append("–")
+                continue
+            time = (
+                "t/o" if cell.mean_success_time_s is None else f"{cell.mean_success_time_s:.1f} s"
+            )
+            texts.append(f"{cell.successes}/{cell.trials}, {time}")
+            if cell.mean_success_time_s is not None:
+                points.append((size, cell.mean_success_time_s))
+        fitted = slope(points)
+        texts.append("–" if fitted is None else f"{fitted:.2f}")
+        lines.append(f"| {row} | " + " | ".join(texts) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def plot_scale(cells: dict[tuple[str, int], ScaleCell], path: Path) -> Path:
+    """Success rate (left) and mean time of successes, log-log (right), by object count."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, (rate_axis, time_axis) = plt.subplots(1, 2, figsize=(10, 4))
+    for row in sorted({r for r, _ in cells}):
+        sizes = sorted(size for r, size in cells if r == row)
+        rates = [cells[(row, n)].successes / cells[(row, n)].trials for n in sizes]
+        rate_axis.plot(sizes, rates, marker="o", label=row)
+        timed = [(n, cells[(row, n)].mean_success_time_s) for n in sizes]
+        points = [(n, t) for n, t in timed if t is not None]
+        if points:
+            fitted = slope(points)
+            label = row if fitted is None else f"{row} (slope {fitted:.2f})"
+            time_axis.plot([n for n, _ in points], [t for _, t in points], marker="o", label=label)
+    rate_axis.set(xlabel="movable objects", ylabel="success rate", ylim=(-0.05, 1.05))
+    rate_axis.set_xscale("log", base=2)
+    time_axis.set(xlabel="movable objects", ylabel="mean time of successes (s)")
+    time_axis.set_xscale("log", base=2)
+    time_axis.set_yscale("log")
+    for axis in (rate_axis, time_axis):
+        axis.grid(True, which="both", alpha=0.3)
+        axis.legend(fontsize=8)
+    figure.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path)
+    plt.close(figure)
+    return path
