@@ -315,7 +315,8 @@ class LlmMctsSteps:
         return self.trial.memo.of(state).literals
 
     def decide(self) -> Decision:
-        trial, prior, search = self.trial, self.prior, self.planner.settings.search
+        trial, prior = self.trial, self.prior
+        search = trial.within_horizon(self.planner.settings.search)
         trial.replans += 1
         trial.say(f"step {trial.done}: MCTS with an LLM prior, {search.budget} sims")
         tree = trial.tree_at(trial.state) if trial.reuse_tree else None

@@ -14,6 +14,7 @@ search tree kept between real steps, phase timing and progress messages.
 
 from __future__ import annotations
 
+import dataclasses
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -33,7 +34,7 @@ from stalm.planners.settings import RunSettings
 from stalm.predicates.deadline import DeadlinePassed
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.predicates.samples import PredicateSettings
-from stalm.search import SearchTree
+from stalm.search import SearchSettings, SearchTree
 from stalm.world.problem import Problem
 from stalm.world.scene import Sim
 from stalm.world.state import State
@@ -87,6 +88,14 @@ class Trial:
     def done(self) -> int:
         """How many actions have been executed."""
         return len(self.episode.executed)
+
+    def within_horizon(self, search: SearchSettings) -> SearchSettings:
+        """``search`` looking no further than this trial's horizon (the problem's): a plan
+        the tree finds is executed whole, so it must end within the steps the trial has
+        left, whatever horizon the method's own settings carry."""
+        if search.horizon == self.problem.horizon:
+            return search
+        return dataclasses.replace(search, horizon=self.problem.horizon)
 
     def say(self, message: str) -> None:
         if self.progress is not None:

@@ -188,7 +188,7 @@ class SearchStep:
         one root action chosen by the execution rule."""
         trial = self.trial
         domain, state, done = trial.domain, trial.state, trial.done
-        search = self.settings.search
+        search = trial.within_horizon(self.settings.search)
         tree = trial.tree_at(state)
         visits_before = tree.visits(state)
         share_end = self.share_end()
