@@ -33,6 +33,8 @@ class _Nudger:
 
     def value(self, value: Any) -> Any:
         if isinstance(value, float):
+            if value == 0.0:  # a constant (a pure yaw's x and y): no CPU rounds it otherwise
+                return value
             return value + self.size * next(self._signs)
         if isinstance(value, tuple | list):
             return type(value)(self.value(v) for v in value)
