@@ -16,6 +16,7 @@ from stalm.domain.actions import DiscreteAction, Open, Pick, Place
 from stalm.errors import StalmError
 from stalm.planners.base import PlanResult
 from stalm.planners.feedback import FailedStep
+from stalm.planners.noisy import NoisyProposer
 from stalm.planners.proposers import FeedbackProposer, LLMProposer, Proposal, TaskPlanProposer
 from stalm.planners.registry import PlannerConfig, RunSettings, build_planner, planners
 from stalm.planners.replay import ReplayReport, replay_plan
@@ -29,6 +30,7 @@ __all__ = [
     "FailedStep",
     "FeedbackProposer",
     "LLMProposer",
+    "NoisyProposer",
     "Open",
     "Pick",
     "Place",

@@ -38,10 +38,26 @@ def _names(text: str | None) -> tuple[str, ...] | None:
     return tuple(part.strip() for part in text.split(",") if part.strip())
 
 
+def _rates(text: str | None) -> tuple[float, ...] | None:
+    """``--rates 0,0.25,0.5`` as numbers (their range is the experiment plan's to check)."""
+    names = _names(text)
+    if names is None:
+        return None
+    try:
+        return tuple(float(name) for name in names)
+    except ValueError:
+        raise StalmError(f"--rates must be comma-separated numbers, got {text!r}") from None
+
+
 @commands.command("experiment")
 def experiment_command(
     name: Annotated[
-        str, typer.Argument(help="table2, table3, table4, figure5, or scale (with --suite).")
+        str,
+        typer.Argument(
+            help="table2, table3, table4, figure5, scale (with --suite), or additions (STaLM "
+            "on the noisy proposer with each of this implementation's additions to the tree "
+            "left out alone; P3-P6 by default)."
+        ),
     ],
     problems: Annotated[
         str | None, typer.Option(help="Comma-separated problems (default P1..P6).")
@@ -64,6 +80,23 @@ def experiment_command(
         Path | None,
         typer.Option(help="scale: the folder of a generated suite (stalm generate --suite)."),
     ] = None,
+    proposer: Annotated[
+        str | None,
+        typer.Option(
+            "--proposer",
+            help="Where STaLM's task plans come from (proposer.kind): llm, symbolic, or noisy "
+            "(a degraded proposer, no language model: Fast Downward's plans corrupted on "
+            "purpose at the rate proposer.noise.rate; table3 then runs STaLM and STaLM w/o UCT "
+            "at every --rates, and UCT once).",
+        ),
+    ] = None,
+    rates: Annotated[
+        str | None,
+        typer.Option(
+            help="With --proposer noisy: comma-separated error rates in [0, 1], one row per "
+            "rate (default: proposer.noise.rate, 0.5).",
+        ),
+    ] = None,
     seed: Annotated[int, typer.Option(help="Master seed; trial seeds derive from it.")] = 0,
     budget_scale: Annotated[
         float, typer.Option(help="Multiply the paper's time budgets (300/600 s) by this.")
@@ -85,7 +118,10 @@ def experiment_command(
     ] = None,
     results: Annotated[
         Path | None,
-        typer.Option(help="The JSON-lines results file (default results/NAME.jsonl)."),
+        typer.Option(
+            help="The JSON-lines results file (default results/NAME.jsonl; "
+            "results/table3-noisy.jsonl for table3 with --proposer noisy)."
+        ),
     ] = None,
     report_dir: Annotated[
         Path | None, typer.Option(help="Write the report here when done (default: beside).")
@@ -104,7 +140,9 @@ def experiment_command(
     from stalm.experiments.runner import run_experiment
     from stalm.experiments.suites import build_plan, trial_specs
 
-    flags = given(sims=("search.sims", sims), cache=("llm.cache", cache))
+    flags = given(
+        sims=("search.sims", sims), cache=("llm.cache", cache), proposer=("proposer.kind", proposer)
+    )
     base = command_settings(settings_file, flags, overrides or ()).settings
     plan = build_plan(
         name,
@@ -117,10 +155,13 @@ def experiment_command(
         time_budget_s=time_budget,
         base=base,
         suite=suite,
+        rates=_rates(rates),
     )
     _check_model_rows(plan.arms)
     specs = trial_specs(plan)
-    log = ResultsLog(results or Path("results") / f"{name}.jsonl")
+    # the noisy proposer's Table 3 is a table of its own, not rows added to the model's
+    stem = f"{name}-noisy" if name == "table3" and base.proposer.kind == "noisy" else name
+    log = ResultsLog(results or Path("results") / f"{stem}.jsonl")
     if log.set_aside is not None:
         console.print(
             f"[yellow]warning:[/] {shown(log.path)}: moved its partial last line to "

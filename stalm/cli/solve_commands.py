@@ -78,9 +78,11 @@ def solve_command(
         str | None,
         typer.Option(
             "--proposer",
-            help="Where task plans come from (proposer.kind): llm (a language model) or "
-            "symbolic (Fast Downward on the predicates, no model). Default: llm when a model "
-            "is named (--llm, $STALM_LLM, $STALM_LLM_BASE_URL), else symbolic.",
+            help="Where task plans come from (proposer.kind): llm (a language model), "
+            "symbolic (Fast Downward on the predicates, no model) or noisy (a degraded "
+            "proposer, no model: Fast Downward's plans corrupted on purpose, see "
+            "proposer.noise). Default: llm when a model is named (--llm, $STALM_LLM, "
+            "$STALM_LLM_BASE_URL), else symbolic.",
         ),
     ] = None,
     planner_name: Annotated[
@@ -139,7 +141,7 @@ def solve_command(
             "--feedback/--no-feedback",
             help="Geometric feedback (execution.feedback): failed steps go back to the "
             "proposer, asked again (default: on with --proposer symbolic, off with a model, as "
-            "in the paper).",
+            "in the paper, and with --proposer noisy).",
         ),
     ] = None,
     settings_file: Annotated[Path | None, typer.Option("--settings", help=SETTINGS_HELP)] = None,

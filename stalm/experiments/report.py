@@ -4,7 +4,8 @@ A cell is one (row label, problem): the success rate over its trials and the mea
 time of the successes, or ``t/o`` when none succeeded (the paper's convention). Trials that
 ended in a planner exception are counted apart (``errors``), never as time-outs. Figure 5 is
 the share of the proposer's failed task plans by kind, per problem, over every record that
-has them (STaLM's and STaLM w/o UCT's).
+has them (STaLM's and STaLM w/o UCT's). Records of the noisy proposer add its confusion table
+and the success-against-error-rate curve (:mod:`stalm.experiments.noise_report`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,14 @@ from decimal import ROUND_HALF_UP, Decimal
 from pathlib import Path
 from typing import Any
 
+from stalm.experiments.noise_report import (
+    confusion,
+    curve,
+    markdown_confusion,
+    markdown_curve,
+    noise_rate,
+    plot_curve,
+)
 from stalm.experiments.paper_tables import TABLE2
 from stalm.experiments.scale_report import has_sizes, markdown_scale, plot_scale, scale_cells
 from stalm.search.concretize import FAILURE_KINDS
@@ -307,6 +316,15 @@ def write_report(
     if paper and not sized:
         text += "\nIn brackets: the paper's Table 2 (50 trials, GPT-4-turbo, full budgets).\n"
     text += "\n## Failed task plans by kind (Figure 5)\n\n" + markdown_failures(shares)
+    latest = latest_records(records)
+    noise_curve = None
+    if any(noise_rate(record) is not None for record in latest):
+        text += "\n## The noisy proposer (no language model): injected against classified kinds\n\n"
+        text += markdown_confusion(confusion(latest))
+        noise_curve = curve(latest)
+        if noise_curve is not None:
+            text += "\n## Success rate against the noisy proposer's error rate\n\n"
+            text += markdown_curve(noise_curve)
     out_dir.mkdir(parents=True, exist_ok=True)
     markdown_path = out_dir / f"{name}.md"
     markdown_path.write_text(text, encoding="utf-8")
@@ -319,4 +337,6 @@ def write_report(
         plots.append(plot_success_over_time(table, out_dir / f"{name}-success.{suffix}"))
         if shares:
             plots.append(plot_failures(shares, out_dir / f"{name}-failures.{suffix}"))
+        if noise_curve is not None:
+            plots.append(plot_curve(noise_curve, out_dir / f"{name}-noise.{suffix}"))
     return text, ReportFiles(markdown_path, csv_path, tuple(plots))

@@ -1,5 +1,8 @@
 """The paper's experiments as lists of trials: Table 2, Table 3, Table 4 and Figure 5; and
-``scale``, this implementation's: planners on a suite of generated problems by size.
+this implementation's: ``scale`` (planners on a suite of generated problems by size), Table 3
+with the noisy proposer at several error rates (``table3 --proposer noisy --rates ...``), and
+``additions`` (STaLM on the noisy proposer with each of this implementation's additions to
+the tree left out alone).
 
 An :class:`ExperimentPlan` fixes the arms (rows), problems (columns), trial count, master seed
 and budgets; :func:`trial_specs` expands it into one :class:`TrialSpec` per (arm, problem,
@@ -14,12 +17,14 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from stalm.errors import StalmError
+from stalm.experiments.noise_report import noisy_label
 from stalm.experiments.trials import Arm, TrialSpec, check_problem_name, derive_seed
 from stalm.llm.prompt import PromptOptions
-from stalm.planners.registry import RunSettings, planner_entry
+from stalm.planners.registry import PROPOSING, RunSettings, planner_entry
+from stalm.planners.settings import ProposerSection
 from stalm.planners.settings_io import with_values
 
-EXPERIMENTS = ("table2", "table3", "table4", "figure5", "scale")
+EXPERIMENTS = ("table2", "table3", "table4", "figure5", "scale", "additions")
 SCALE_PLANNERS = ("stalm-symbolic", "uct", "pddlstream-adaptive")
 """``scale``'s rows unless ``--planners`` names others: no model needed."""
 TABLE2_PLANNERS = (
@@ -71,6 +76,18 @@ other additions), and STaLM with a model and geometric feedback (beyond the pape
 own settings override the command's (``--settings``, ``--set``)."""
 PAPER_TRIALS = 50
 ALL_PROBLEMS = ("P1", "P2", "P3", "P4", "P5", "P6")
+NOISY_TABLE3_ROWS = ("stalm", "stalm-no-uct", "uct")
+"""Table 3's rows with the noisy proposer: STaLM and STaLM w/o UCT at each error rate, and
+UCT (no task plans at all) once, as the paper's rows run (:data:`AUTHORS_SETTINGS`)."""
+ADDITIONS_PROBLEMS = ("P3", "P4", "P5", "P6")
+LEFT_OUT: dict[str, dict[str, object]] = {
+    "w/o tree reuse": {"execution.reuse_tree": False},
+    "w/o progress rule": {"execution.rule": "best_q"},
+    "w/o -3 for an undone conjunct": {"rewards.goal_atom_lost": 0.0},
+    "w/o kappa retries": {"execution.kappa_tries": 1},
+}
+"""``additions``: each of this implementation's additions to the tree, left out alone (the
+authors' way or Algorithm 2's), by the words its row's label ends with."""
 
 
 @dataclass(frozen=True)
@@ -122,6 +139,7 @@ def build_plan(
     time_budget_s: float | None = None,
     base: RunSettings | None = None,
     suite: Path | None = None,
+    rates: tuple[float, ...] | None = None,
 ) -> ExperimentPlan:
     """The arms of experiment ``name`` (see the module docstring) with the caller's choices.
 
@@ -132,6 +150,12 @@ def build_plan(
     * scale: ``planners`` (default :data:`SCALE_PLANNERS`) on every problem of the generated
       ``suite`` (a folder written by ``stalm generate --suite``); each record carries
       ``suite`` and ``objects``.
+    * table3 with ``base.proposer.kind`` 'noisy': ``planners`` (default
+      :data:`NOISY_TABLE3_ROWS`), each proposing one at every error rate of ``rates``
+      (default: ``proposer.noise.rate``), labelled with it; the others once.
+    * additions: STaLM as ``stalm-symbolic`` runs it but on the noisy proposer (feedback off,
+      its default there) at each of ``rates``, and with each of :data:`LEFT_OUT` left out
+      alone; P3-P6 unless ``problems`` says otherwise.
     """
     if name not in EXPERIMENTS:
         raise StalmError(f"unknown experiment '{name}' (available: {', '.join(EXPERIMENTS)})")
@@ -159,8 +183,22 @@ def build_plan(
         fields = {
             str(read.path(p)): {"suite": read.name, "objects": p.objects} for p in read.problems
         }
+    if name == "additions":
+        base = with_values(base, [("proposer.kind", "noisy")], "experiment additions")
+    rates = _rates(base, rates)
     if name == "table2":
         arms = [arm_for(p, base) for p in planners or TABLE2_PLANNERS]
+    elif name == "table3" and base.proposer.kind == "noisy":
+        arms = _noisy_arms(base, planners or NOISY_TABLE3_ROWS, rates)
+    elif name == "additions":
+        arms = []
+        for rate in rates:
+            config = with_values(base, [("proposer.noise.rate", rate)], "--rates")
+            label = noisy_label("stalm+", rate)
+            arms.append(arm_for("stalm+", config, label))
+            for words, changes in LEFT_OUT.items():
+                left_out = with_values(config, changes.items(), f"row {label} {words}")
+                arms.append(arm_for("stalm+", left_out, f"{label} {words}"))
     elif name == "table3":
         models = llms or (base.llm.backend or "embedded",)
         arms = []
@@ -190,13 +228,47 @@ def build_plan(
     return ExperimentPlan(
         name=name,
         arms=tuple(arms),
-        problems=problems or ALL_PROBLEMS,
+        problems=problems or (ADDITIONS_PROBLEMS if name == "additions" else ALL_PROBLEMS),
         trials=trials,
         master_seed=master_seed,
         budget_scale=budget_scale,
         time_budget_s=time_budget_s,
         problem_fields=fields,
     )
+
+
+def _rates(base: RunSettings, rates: tuple[float, ...] | None) -> tuple[float, ...]:
+    """The noisy proposer's error rates to run (``--rates``; default its one rate), each
+    checked; a StalmError if given without the noisy proposer."""
+    if base.proposer.kind != "noisy":
+        if rates:
+            raise StalmError("--rates goes with the noisy proposer: add --proposer noisy")
+        return ()
+    if not rates:
+        return (base.proposer.noise.rate,)
+    for rate in rates:
+        if not (math.isfinite(rate) and 0.0 <= rate <= 1.0):
+            raise StalmError(f"--rates: an error rate must be in [0, 1], got {rate}")
+    if len(set(rates)) != len(rates):
+        raise StalmError(f"--rates lists a rate twice: {', '.join(f'{r:g}' for r in rates)}")
+    return rates
+
+
+def _noisy_arms(base: RunSettings, rows: tuple[str, ...], rates: tuple[float, ...]) -> list[Arm]:
+    """Each row that takes task plans from the proposer at every rate, labelled with it (and
+    with the model the noisy proposer wraps, if it wraps one); any other row once, with the
+    default proposer section, so its record is not mistaken for the noisy proposer's."""
+    model = base.llm.backend or "embedded"
+    suffix = f" [{model}]" if base.proposer.noise.inner == "llm" else ""
+    arms: list[Arm] = []
+    for row in rows:
+        if ARM_ALIASES.get(row, (row, {}))[0] not in PROPOSING:
+            arms.append(arm_for(row, replace(base, proposer=ProposerSection())))
+            continue
+        for rate in rates:
+            config = with_values(base, [("proposer.noise.rate", rate)], "--rates")
+            arms.append(arm_for(row, config, noisy_label(row, rate) + suffix))
+    return arms
 
 
 def trial_specs(plan: ExperimentPlan) -> list[TrialSpec]:

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, fields, replace
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.prompt import PromptOptions
-from stalm.planners.settings import FLAT_NAMES, RunSettings
+from stalm.planners.settings import FLAT_NAMES, PROPOSER_KINDS, RunSettings
 from stalm.planners.settings_io import with_values
 
 Progress = Callable[[str], None]
@@ -34,7 +34,8 @@ class PlannerConfig:
     llm: str | None = None
     """Backend spec as ``--llm`` takes it (None: $STALM_LLM or the embedded model)."""
     proposer: str = "llm"
-    """Where STaLM's task plans come from: 'llm' or 'symbolic'."""
+    """Where STaLM's task plans come from: 'llm', 'symbolic' or 'noisy' (the tree's
+    ``proposer.noise`` section configures the noisy one)."""
     sims: int | None = None
     """N_budget; None gives the planner's default (30 for STaLM, 35 for the UCT baselines)."""
     batch: int = 5
@@ -66,8 +67,10 @@ class PlannerConfig:
     """The symbolic proposer grounds relative placements only for the goal's relations."""
 
     def __post_init__(self) -> None:
-        if self.proposer not in ("llm", "symbolic"):
-            raise StalmError(f"unknown proposer '{self.proposer}' (available: llm, symbolic)")
+        if self.proposer not in PROPOSER_KINDS:
+            raise StalmError(
+                f"unknown proposer '{self.proposer}' (available: {', '.join(PROPOSER_KINDS)})"
+            )
         if self.batch < 1:
             raise StalmError(f"--batch (N_batch) must be at least 1, got {self.batch}")
         if self.sims is not None and self.sims < 1:

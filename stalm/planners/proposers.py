@@ -61,6 +61,10 @@ class Proposal:
     from_cache: bool = False
     truncated: tuple[bool, ...] = ()
     cached_seconds: float = 0.0
+    injected: tuple[str, ...] = ()
+    """Per plan, what a degraded proposer did to it on purpose (:mod:`stalm.planners.noisy`:
+    ``clean``, ``inapplicable`` or the Figure 5 kind it injected); empty from every other
+    proposer."""
 
     @property
     def truncated_plans(self) -> int:

@@ -23,6 +23,7 @@ from stalm.planners.settings import RunSettings
 from stalm.world.problem import Problem
 
 __all__ = [
+    "PROPOSING",
     "PlannerConfig",
     "PlannerEntry",
     "Progress",
@@ -36,6 +37,10 @@ __all__ = [
 ]
 
 Builder = Callable[[RunSettings, Progress | None], Planner]
+
+PROPOSING = ("stalm", "stalm-no-uct")
+"""The planners whose task plans come from ``proposer.kind`` (the other model-based
+baselines ask the model with prompts of their own)."""
 
 
 @dataclass(frozen=True)
@@ -168,9 +173,9 @@ def planner_entry(name: str) -> PlannerEntry:
 
 def asks_model(name: str, settings: RunSettings) -> bool:
     """Whether planner ``name`` asks a language model under ``settings`` (STaLM with the
-    symbolic proposer does not)."""
-    symbolic = settings.proposer.kind == "symbolic" and name in ("stalm", "stalm-no-uct")
-    return planner_entry(name).uses_llm and not symbolic
+    symbolic proposer, or the noisy one wrapping it, does not)."""
+    modelless = not settings.proposer.asks_model() and name in PROPOSING
+    return planner_entry(name).uses_llm and not modelless
 
 
 def resolve(name: str, settings: RunSettings, problem: Problem | None = None) -> RunSettings:

@@ -33,7 +33,16 @@ from stalm.search import SearchSettings
 from stalm.world.problem import Problem
 
 ExecutionRule = Literal["progress", "best_q"]
-ProposerKind = Literal["llm", "symbolic"]
+ProposerKind = Literal["llm", "symbolic", "noisy"]
+PROPOSER_KINDS: tuple[str, ...] = ("llm", "symbolic", "noisy")
+InnerProposer = Literal["symbolic", "llm"]
+NoiseKind = Literal["precondition_violation", "lack_of_3d_understanding", "partially_achieved_goal"]
+NOISE_KINDS: tuple[NoiseKind, ...] = (
+    "precondition_violation",
+    "lack_of_3d_understanding",
+    "partially_achieved_goal",
+)
+"""Figure 5's three kinds of task-plan error, in the order of ``proposer.noise.weights``."""
 
 DEFAULT_SIMS: dict[str, int] = {
     "stalm": 30,
@@ -151,17 +160,64 @@ class SearchSection:
 
 
 @dataclass(frozen=True)
+class NoiseSection:
+    """The noisy proposer (``proposer.kind: noisy``): a degraded proposer, never a language
+    model, that corrupts the plans of another on purpose with Figure 5's kinds of error, so
+    that what the warm-started tree repairs can be measured offline
+    (:mod:`stalm.planners.noisy`)."""
+
+    rate: float = 0.5
+    """p: each task plan of a batch is corrupted with this probability."""
+    weights: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    """Relative weights of the kind a corrupted plan gets, in the order of
+    :data:`NOISE_KINDS` (precondition violation, lack of 3D understanding, partially
+    achieved goal); uniform by default. Only kinds that apply to the plan are drawn."""
+    inner: InnerProposer = "symbolic"
+    """The proposer whose plans are corrupted: 'symbolic' (Fast Downward) or 'llm'."""
+
+    def __post_init__(self) -> None:
+        weights = self.weights
+        _check(
+            "proposer.noise",
+            (
+                ("rate", math.isfinite(self.rate) and 0.0 <= self.rate <= 1.0, "in [0, 1]"),
+                (
+                    "weights",
+                    len(weights) == len(NOISE_KINDS)
+                    and all(math.isfinite(w) and w >= 0 for w in weights)
+                    and sum(weights) > 0,
+                    f"{len(NOISE_KINDS)} numbers >= 0, not all 0 ({', '.join(NOISE_KINDS)})",
+                ),
+            ),
+            self,
+        )
+        if self.inner not in ("symbolic", "llm"):
+            raise StalmError(
+                f"setting proposer.noise.inner must be symbolic or llm, got {self.inner!r}"
+            )
+
+
+@dataclass(frozen=True)
 class ProposerSection:
     """Where STaLM's task plans come from."""
 
     kind: ProposerKind = "llm"
-    """'llm' (a language model, ``llm``) or 'symbolic' (Fast Downward, no model)."""
+    """'llm' (a language model, ``llm``), 'symbolic' (Fast Downward, no model) or 'noisy'
+    (another proposer's plans corrupted on purpose, ``noise``: never a language model)."""
     goal_relations_only: bool = True
     """The symbolic proposer grounds relative placements only for the goal's relations."""
+    noise: NoiseSection = field(default_factory=NoiseSection)
 
     def __post_init__(self) -> None:
-        if self.kind not in ("llm", "symbolic"):
-            raise StalmError(f"unknown proposer '{self.kind}' (available: llm, symbolic)")
+        if self.kind not in PROPOSER_KINDS:
+            raise StalmError(
+                f"unknown proposer '{self.kind}' (available: {', '.join(PROPOSER_KINDS)})"
+            )
+
+    def asks_model(self) -> bool:
+        """Whether the task plans come from a language model (the noisy proposer's only when
+        it wraps one)."""
+        return self.kind == "llm" or (self.kind == "noisy" and self.noise.inner == "llm")
 
 
 @dataclass(frozen=True)
@@ -198,7 +254,8 @@ class ExecutionSection:
     planner: STaLM, UCT, UCT-Hcount, LLM-MCTS)."""
     feedback: bool | None = None
     """Geometric feedback to the proposer; None: on for the symbolic proposer, off for a
-    language model (the paper's method)."""
+    language model (the paper's method) and for the noisy proposer (whose point is to see the
+    tree repair its plans; on, the noisy proposer passes it to the proposer it wraps)."""
     feedback_rounds: int = 8
     """At most this many proposals per real step with feedback."""
     search_rounds: int = 10
@@ -232,7 +289,8 @@ class ExecutionSection:
         )
 
     def feedback_for(self, proposer: ProposerSection) -> bool:
-        """Whether feedback is on: ``feedback``, else on for the symbolic proposer only."""
+        """Whether feedback is on: ``feedback``, else on for the symbolic proposer only (off
+        for a model and for the noisy proposer)."""
         return self.feedback if self.feedback is not None else proposer.kind == "symbolic"
 
     def backtracks_for(self, feedback: bool) -> int:

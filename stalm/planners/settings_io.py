@@ -39,30 +39,52 @@ def _sections() -> dict[str, type]:
     return {f.name: _hints(RunSettings)[f.name] for f in dataclasses.fields(RunSettings)}
 
 
+def _is_section(hint: Any) -> bool:
+    """Whether a field holds a (sub)section -- a dataclass of settings -- rather than a value
+    (``proposer.noise`` is a section inside the section ``proposer``)."""
+    return isinstance(hint, type) and dataclasses.is_dataclass(hint)
+
+
+def _leaves(prefix: str, cls: type) -> list[str]:
+    """The dotted keys of every value below section ``cls`` at ``prefix``, in field order."""
+    hints = _hints(cls)
+    keys: list[str] = []
+    for f in dataclasses.fields(cls):
+        key = f"{prefix}.{f.name}"
+        keys += _leaves(key, hints[f.name]) if _is_section(hints[f.name]) else [key]
+    return keys
+
+
 def setting_keys() -> list[str]:
     """Every dotted key of the tree, in the order ``--show-settings`` prints them."""
-    return [
-        f"{section}.{f.name}"
-        for section, cls in _sections().items()
-        for f in dataclasses.fields(cls)
-    ]
+    return [key for section, cls in _sections().items() for key in _leaves(section, cls)]
 
 
 def _field_type(key: str, source: str) -> Any:
-    """The type of the field at dotted ``key``; a StalmError listing valid keys if none."""
+    """The type of the value at dotted ``key``; a StalmError listing valid keys if none (a
+    key that names a section is no value either)."""
     sections = _sections()
-    section, _, name = key.partition(".")
+    section, _, rest = key.partition(".")
     if section not in sections:
         raise StalmError(
             f"{source}: unknown setting '{key}' (sections: {', '.join(sections)}; "
             f"e.g. search.c; `stalm solve P1 --show-settings` lists every key)"
         )
-    fields = [f.name for f in dataclasses.fields(sections[section])]
-    if name not in fields:
-        valid = ", ".join(f"{section}.{f}" for f in fields)
-        what = f"'{section}' is a section" if not name else f"unknown setting '{key}'"
-        raise StalmError(f"{source}: {what} (valid: {valid})")
-    return _hints(sections[section])[name]
+    cls, path = sections[section], section
+    names = rest.split(".") if rest else []
+    while True:
+        fields = [f.name for f in dataclasses.fields(cls)]
+        name = names.pop(0) if names else ""
+        if name not in fields:
+            valid = ", ".join(f"{path}.{f}" for f in fields)
+            what = f"'{path}' is a section" if not name else f"unknown setting '{key}'"
+            raise StalmError(f"{source}: {what} (valid: {valid})")
+        hint = _hints(cls)[name]
+        if not _is_section(hint):
+            if names:
+                raise StalmError(f"{source}: unknown setting '{key}' ({path}.{name} is a value)")
+            return hint
+        cls, path = hint, f"{path}.{name}"
 
 
 def _describe(hint: Any) -> str:
@@ -127,6 +149,26 @@ def _checked(key: str, value: Any, source: str) -> Any:
     return coerced
 
 
+def _names_section(key: str) -> bool:
+    """Whether dotted ``key`` names a section or subsection (``proposer.noise``)."""
+    section, *names = key.split(".")
+    cls: Any = _sections().get(section)
+    for name in names:
+        if not _is_section(cls):
+            return False
+        cls = _hints(cls).get(name)
+    return _is_section(cls)
+
+
+def _replaced(part: Any, names: list[str], value: Any) -> Any:
+    """Section ``part`` with the value at the dotted path ``names`` below it replaced (the
+    sections on the way rebuilt, so each checks itself again)."""
+    name = names[0]
+    if len(names) > 1:
+        value = _replaced(getattr(part, name), names[1:], value)
+    return dataclasses.replace(part, **{name: value})
+
+
 def with_values(
     settings: RunSettings, values: Iterable[tuple[str, Any]], source: str
 ) -> RunSettings:
@@ -134,12 +176,10 @@ def with_values(
     for key, value in values:
         key = FLAT_NAMES.get(key, key)
         coerced = _checked(key, value, source)
-        section, _, name = key.partition(".")
+        section, *names = key.split(".")
         part = getattr(settings, section)
         try:
-            settings = dataclasses.replace(
-                settings, **{section: dataclasses.replace(part, **{name: coerced})}
-            )
+            settings = dataclasses.replace(settings, **{section: _replaced(part, names, coerced)})
         except StalmError as error:
             raise StalmError(f"{source}: {error}") from None
     return settings
@@ -167,15 +207,17 @@ def with_overrides(settings: RunSettings, pairs: Sequence[str]) -> RunSettings:
 
 def flatten(data: Mapping[str, Any], source: str) -> list[tuple[str, Any]]:
     """(dotted key, value) pairs of a nested mapping of sections (dotted keys allowed, and the
-    flat names); a value that is a mapping must be a section's."""
+    flat names); a value that is a mapping must be a section's (or a subsection's, such as
+    ``proposer: {noise: {rate: 0.25}}``)."""
     sections = _sections()
     pairs: list[tuple[str, Any]] = []
     for key, value in data.items():
         key = str(key)
         if isinstance(value, Mapping):
-            if key not in sections:
-                _field_type(key, source)  # raises, listing the sections
-            pairs += [(f"{key}.{name}", inner) for name, inner in value.items()]
+            if key not in sections and not _names_section(key):
+                _field_type(key, source)  # raises for an unknown key, listing the valid ones
+                raise StalmError(f"{source}: {key} is a setting, not a section")
+            pairs += flatten({f"{key}.{name}": inner for name, inner in value.items()}, source)
         else:
             pairs.append((key, value))
     return pairs
@@ -199,30 +241,34 @@ def with_file(settings: RunSettings, path: Path) -> RunSettings:
     return from_mapping(data or {}, str(path), settings)
 
 
+def _plain(value: Any) -> Any:
+    """A setting's value as plain JSON/YAML data: a section as a mapping, a tuple as a list."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    return list(value) if isinstance(value, tuple) else value
+
+
 def to_dict(settings: RunSettings) -> dict[str, dict[str, Any]]:
-    """The tree as plain JSON/YAML data (tuples as lists)."""
+    """The tree as plain JSON/YAML data (sections as mappings, tuples as lists)."""
+    return {section: _plain(getattr(settings, section)) for section in _sections()}
 
-    def plain(value: Any) -> Any:
-        return list(value) if isinstance(value, tuple) else value
 
-    return {
-        section: {
-            f.name: plain(getattr(getattr(settings, section), f.name))
-            for f in dataclasses.fields(getattr(settings, section))
-        }
-        for section in _sections()
-    }
+def _flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested sections as one mapping of dotted keys to values."""
+    flat: dict[str, Any] = {}
+    for name, value in data.items():
+        key = f"{prefix}{name}"
+        if isinstance(value, Mapping):
+            flat |= _flat(value, f"{key}.")
+        else:
+            flat[key] = value
+    return flat
 
 
 def changed(settings: RunSettings, base: RunSettings | None = None) -> dict[str, Any]:
     """The dotted keys whose values differ from ``base`` (default: the defaults)."""
-    ours, theirs = to_dict(settings), to_dict(base or RunSettings())
-    return {
-        f"{section}.{name}": value
-        for section, values in ours.items()
-        for name, value in values.items()
-        if value != theirs[section][name]
-    }
+    ours, theirs = _flat(to_dict(settings)), _flat(to_dict(base or RunSettings()))
+    return {key: value for key, value in ours.items() if value != theirs[key]}
 
 
 class _Dumper(yaml.SafeDumper):

@@ -27,6 +27,7 @@ from stalm.errors import StalmError
 from stalm.planners.config import Progress, llm_backend, use_constraint
 from stalm.planners.feedback import failed_steps
 from stalm.planners.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
+from stalm.planners.noisy import NoisyProposer, injected_records
 from stalm.planners.online import Sampling, Trial
 from stalm.planners.proposers import (
     FeedbackProposer,
@@ -70,15 +71,20 @@ class StalmStep(SearchStep):
         """What the proposer was told (geometric feedback)."""
         self.proposals = 0
         self.step_records: list[dict[str, object]] = []
+        self.injected: list[dict[str, Any]] = []
+        """The noisy proposer's plans: what was injected into each, and its Figure 5 kind."""
 
     def details(self) -> dict[str, Any]:
-        return {
+        details = {
             **super().details(),
             "proposer": self.proposer.name,
             "proposals": self.proposals,
             "feedback_steps_learned": len(self.memory.steps),
             "steps": self.step_records,
         }
+        if isinstance(self.proposer, NoisyProposer):
+            details["noise"] = {**self.proposer.describe(), "plans": self.injected}
+        return details
 
     def propose(self) -> tuple[list[ConcretePlan], tuple[Action, ...] | None]:
         """Task plans from the proposer, concretized; with feedback, ask again (at most
@@ -133,6 +139,10 @@ class StalmStep(SearchStep):
                     backtracks=settings.backtracks,
                 )
             episode.count_failures(concrete)
+            if proposal.injected:
+                self.injected += injected_records(
+                    done, round_, proposal.injected, concrete.plans, predicates.literals
+                )
             self._step["proposals"].append(
                 proposal_record(round_, len(feedback), concrete.plans, predicates.literals)
             )
@@ -204,8 +214,17 @@ class StalmPlanner(TreePlanner):
 
 
 def proposer_for(settings: RunSettings) -> TaskPlanProposer:
-    """STaLM's proposer: the symbolic planner, or the configured (cached) language model."""
-    if settings.proposer.kind == "symbolic":
+    """STaLM's proposer: the symbolic planner, the configured (cached) language model, or the
+    noisy proposer wrapping one of them."""
+    section = settings.proposer
+    if section.kind == "noisy":
+        noise = section.noise
+        return NoisyProposer(_plain_proposer(settings, noise.inner), noise.rate, noise.weights)
+    return _plain_proposer(settings, section.kind)
+
+
+def _plain_proposer(settings: RunSettings, kind: str) -> TaskPlanProposer:
+    if kind == "symbolic":
         return SymbolicProposer(goal_relations_only=settings.proposer.goal_relations_only)
     backend = llm_backend(settings)
     return LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))

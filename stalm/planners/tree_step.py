@@ -109,9 +109,10 @@ def tree_settings(settings: RunSettings, planner: str, *, proposes: bool) -> Sta
         kappa_tries=execution.kappa_tries,
         backtracks=execution.backtracks_for(feedback),
         rewards=settings.rewards,
-        # the symbolic proposer plans with occlusions whatever the prompt options say
+        # the symbolic proposer plans with occlusions whatever the prompt options say, and
+        # the noisy one needs them to drop the step that clears an occluder
         occlusion_predicates=(
-            settings.proposer.kind == "symbolic" or settings.prompt.occlusion_predicates
+            settings.proposer.kind != "llm" or settings.prompt.occlusion_predicates
         ),
     )
 

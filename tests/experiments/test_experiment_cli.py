@@ -112,6 +112,50 @@ def test_report_of_a_missing_file_is_a_clear_error(monkeypatch, tmp_path: Path, 
     assert "no results file" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--rates", "0,1"], "--rates goes with the noisy proposer"),
+        (["--proposer", "noisy", "--rates", "0,lots"], "--rates must be comma-separated"),
+        (["--proposer", "noisy", "--rates", "0,2"], "an error rate must be in [0, 1], got 2.0"),
+        (["--proposer", "gpt"], "proposer.kind must be one of llm, symbolic, noisy"),
+    ],
+)
+def test_bad_noisy_choices_are_one_line_before_any_trial(
+    monkeypatch, tmp_path: Path, capsys, args: list[str], message: str
+) -> None:
+    results = tmp_path / "never.jsonl"
+    command = ["experiment", "table3", "--trials", "1", "--results", str(results), *args]
+    assert run_cli(monkeypatch, *command) == 2
+    assert message in " ".join(capsys.readouterr().err.split())
+    assert not results.exists()
+
+
+@pytest.mark.slow
+def test_table3_on_the_noisy_proposer_and_its_curve(monkeypatch, tmp_path: Path) -> None:
+    """Two rates of STaLM w/o UCT and UCT once on P2, one short trial each: the rows carry
+    their rate and every plan's injected kind; the report draws the curve."""
+    results = tmp_path / "table3-noisy.jsonl"
+    args = ["experiment", "table3", "--proposer", "noisy", "--rates", "0,1", "--problems", "P2"]
+    args += ["--planners", "stalm-no-uct,uct", "--trials", "1", "--time-budget", "20"]
+    assert run_cli(monkeypatch, *args, "--results", str(results)) == 0
+    records = {r["arm"]: r for r in read_records(results).records}
+    assert set(records) == {"stalm-no-uct [noisy 0]", "stalm-no-uct [noisy 1]", "uct"}
+    for rate in (0, 1):
+        record = records[f"stalm-no-uct [noisy {rate}]"]
+        assert record["settings"]["proposer"]["noise"]["rate"] == rate
+        noise = record["details"]["noise"]
+        assert noise["rate"] == rate and noise["plans"], record["termination"]
+        injected = {plan["injected"] for plan in noise["plans"]}
+        assert injected == {"clean"} if rate == 0 else "clean" not in injected
+        assert record["details"]["proposer"].startswith("noisy:")
+        assert record["counters"]["llm_calls"] == 0
+    assert "noise" not in records["uct"]["details"]
+    assert (tmp_path / "table3-noisy-noise.png").exists()
+    markdown = (tmp_path / "table3-noisy.md").read_text()
+    assert "| stalm-no-uct | 1 |" in markdown and "injected \\ classified" in markdown
+
+
 @pytest.mark.slow
 def test_a_killed_run_loses_no_finished_trial_and_resumes(tmp_path: Path) -> None:
     results = tmp_path / "killed.jsonl"

@@ -10,6 +10,8 @@ import pytest
 from stalm.errors import StalmError
 from stalm.experiments.suites import TABLE2_PLANNERS, build_plan, trial_specs
 from stalm.experiments.trials import derive_seed
+from stalm.planners.settings import RunSettings
+from stalm.planners.settings_io import changed, with_overrides
 
 
 def test_table2_defaults_to_the_papers_seven_rows_on_six_problems() -> None:
@@ -204,3 +206,79 @@ def test_a_setting_beyond_the_flat_ones_changes_the_key_and_an_arm_keeps_its_own
     base = with_overrides(RunSettings(), ["proposer.kind=llm"])
     [arm] = build_plan("table2", planners=("stalm-symbolic",), base=base).arms
     assert arm.config.proposer.kind == "symbolic"
+
+
+def _noisy() -> RunSettings:
+    return with_overrides(RunSettings(), ["proposer.kind=noisy"])
+
+
+def test_table3_with_the_noisy_proposer_runs_both_rows_at_every_rate_and_uct_once() -> None:
+    from stalm.experiments.suites import AUTHORS_SETTINGS
+
+    rates = (0.0, 0.25, 0.5, 0.75, 1.0)
+    plan = build_plan("table3", base=_noisy(), rates=rates, trials=5)
+    labels = [arm.label for arm in plan.arms]
+    assert labels == [
+        *(f"stalm [noisy {r:g}]" for r in rates),
+        *(f"stalm-no-uct [noisy {r:g}]" for r in rates),
+        "uct",
+    ]
+    assert plan.problems == ("P1", "P2", "P3", "P4", "P5", "P6")
+    for arm in plan.arms[:-1]:
+        assert arm.config.proposer.kind == "noisy" and arm.planner in ("stalm", "stalm-no-uct")
+        assert arm.config.proposer.noise.rate == float(arm.label.split()[-1].rstrip("]"))
+        assert arm.config.execution.feedback is False  # the paper's rows: the authors' way
+        assert arm.config.execution.rule == AUTHORS_SETTINGS["execution.rule"]
+    uct = plan.arms[-1]
+    assert uct.planner == "uct" and uct.config.proposer.kind == "llm"  # proposes nothing
+    specs = trial_specs(plan)
+    assert len(specs) == 11 * 6 * 5 and len({s.key for s in specs}) == len(specs)
+    # every rate meets the same seeds
+    seeds = {(s.problem, s.trial): s.seed for s in specs if s.arm.label == "stalm [noisy 0]"}
+    assert all(seeds[(s.problem, s.trial)] == s.seed for s in specs)
+    # one rate by default: proposer.noise.rate; the + rows on request
+    plus = build_plan("table3", base=_noisy(), planners=("stalm+", "uct+"))
+    assert [arm.label for arm in plus.arms] == ["stalm+ [noisy 0.5]", "uct+"]
+    assert plus.arms[0].config.execution.rule == "progress"
+
+
+def test_additions_leave_each_addition_out_alone_at_the_noisy_rate() -> None:
+    plan = build_plan("additions", trials=5)
+    assert plan.problems == ("P3", "P4", "P5", "P6")
+    arms = {arm.label: arm for arm in plan.arms}
+    base = arms["stalm+ [noisy 0.5]"].config
+    assert base.proposer.kind == "noisy" and base.proposer.noise.rate == 0.5
+    # STaLM as stalm-symbolic runs it (the tree's defaults), feedback off (the noisy default)
+    assert (base.execution.rule, base.execution.reuse_tree, base.execution.kappa_tries) == (
+        "progress",
+        True,
+        3,
+    )
+    assert base.rewards.goal_atom_lost == 3.0 and base.feedback() is False
+    left_out = {
+        label: changed(arm.config, base) for label, arm in arms.items() if arm.config != base
+    }
+    assert left_out == {
+        "stalm+ [noisy 0.5] w/o tree reuse": {"execution.reuse_tree": False},
+        "stalm+ [noisy 0.5] w/o progress rule": {"execution.rule": "best_q"},
+        "stalm+ [noisy 0.5] w/o -3 for an undone conjunct": {"rewards.goal_atom_lost": 0.0},
+        "stalm+ [noisy 0.5] w/o kappa retries": {"execution.kappa_tries": 1},
+    }
+    assert {arm.planner for arm in plan.arms} == {"stalm"}
+    two = build_plan("additions", rates=(0.25, 0.5), problems=("P5",), trials=1)
+    assert len(two.arms) == 10 and two.problems == ("P5",)
+
+
+@pytest.mark.parametrize(
+    ("rates", "noisy", "message"),
+    [
+        ((0.5,), False, "--rates goes with the noisy proposer"),
+        ((0.5, 0.5), True, "lists a rate twice"),
+        ((1.5,), True, r"must be in \[0, 1\], got 1.5"),
+        ((float("nan"),), True, "must be in"),
+    ],
+)
+def test_bad_rates_are_named(rates, noisy: bool, message: str) -> None:
+    base = _noisy() if noisy else None
+    with pytest.raises(StalmError, match=message):
+        build_plan("table3", base=base, rates=rates)

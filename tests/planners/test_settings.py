@@ -163,6 +163,16 @@ def test_the_flat_names_of_before_the_tree_still_work() -> None:
         ("execution.step_share=0", "execution.step_share must be in (0, 1]", None),
         ("execution.search_rounds=0", "execution.search_rounds must be an integer >= 1", None),
         ("budget.horizon=0", "budget.horizon must be an integer >= 1", None),
+        ("proposer.kind=gpt", "proposer.kind must be one of llm, symbolic, noisy", None),
+        ("proposer.noise=1", "'proposer.noise' is a section", "proposer.noise.rate"),
+        ("proposer.noise.rte=1", "'proposer.noise.rte'", "proposer.noise.weights"),
+        ("proposer.noise.rate.x=1", "proposer.noise.rate is a value", None),
+        ("proposer.noise.rate=1.5", "proposer.noise.rate must be in [0, 1]", None),
+        ("proposer.noise.rate=-0.1", "proposer.noise.rate must be in [0, 1]", None),
+        ("proposer.noise.weights=[1, 1]", "proposer.noise.weights must be a list of 3", None),
+        ("proposer.noise.weights=[0, 0, 0]", "proposer.noise.weights must be 3 numbers >= 0", None),
+        ("proposer.noise.weights=[1, -1, 1]", "proposer.noise.weights must be 3 numbers", None),
+        ("proposer.noise.inner=noisy", "proposer.noise.inner must be one of symbolic, llm", None),
         ("c", "expected KEY=VALUE", None),
     ],
 )
@@ -193,12 +203,38 @@ def test_a_file_then_overrides_build_the_tree(tmp_path: Path) -> None:
         with_file(RunSettings(), bad)
 
 
+def _dotted(data: dict, prefix: str = "") -> list[str]:
+    """The dotted keys of the values of nested sections (``proposer.noise.rate``)."""
+    keys: list[str] = []
+    for name, value in data.items():
+        keys += _dotted(value, f"{prefix}{name}.") if isinstance(value, dict) else [prefix + name]
+    return keys
+
+
 def test_the_yaml_of_a_tree_reads_back_as_the_same_tree() -> None:
-    settings = with_overrides(RunSettings(), ["samplers.yaw_range=[-1, 1]", "search.c=7.5"])
+    settings = with_overrides(
+        RunSettings(),
+        ["samplers.yaw_range=[-1, 1]", "search.c=7.5", "proposer.noise.weights=[1, 0, 2]"],
+    )
     text = to_yaml(settings)
+    assert "  noise:\n    rate: 0.5\n" in text  # a section inside a section
     assert from_mapping(yaml.safe_load(text), "yaml") == settings
     assert from_mapping(json.loads(json.dumps(to_dict(settings))), "json") == settings
-    assert [f"{s}.{k}" for s, keys in to_dict(settings).items() for k in keys] == setting_keys()
+    assert _dotted(to_dict(settings)) == setting_keys()
+    assert "proposer.noise.rate" in setting_keys() and "proposer.noise" not in setting_keys()
+
+
+def test_a_subsection_is_set_by_its_dotted_key_or_nested_in_a_file(tmp_path: Path) -> None:
+    settings = with_overrides(RunSettings(), ["proposer.kind=noisy", "proposer.noise.rate=0.25"])
+    assert (settings.proposer.kind, settings.proposer.noise.rate) == ("noisy", 0.25)
+    assert changed(settings) == {"proposer.kind": "noisy", "proposer.noise.rate": 0.25}
+    run = tmp_path / "run.yaml"
+    run.write_text("proposer:\n  noise:\n    rate: 0.75\n    inner: llm\n")
+    noise = with_file(RunSettings(), run).proposer.noise
+    assert (noise.rate, noise.inner, noise.weights) == (0.75, "llm", (1.0, 1.0, 1.0))
+    run.write_text("proposer:\n  kind:\n    rate: 1\n")
+    with pytest.raises(StalmError, match=r"run\.yaml: proposer\.kind is a setting, not a section"):
+        with_file(RunSettings(), run)
 
 
 def test_resolving_decides_every_planner_choice_once(problems) -> None:
