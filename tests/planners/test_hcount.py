@@ -80,14 +80,16 @@ def test_hcount_of_the_initial_states(problems, initial_literals, name) -> None:
 
 
 def test_uct_hcount_runs(problems) -> None:
-    # one real step, under a budget far above its cost: the deadline bounds the predicate
-    # computations too, and P2's first one alone takes several seconds on a loaded machine
+    # two real steps (the tree looks no deeper than the horizon, so with one step its only
+    # leaves would be terminal and never valued), under a budget far above their cost: the
+    # deadline bounds the predicate computations too, and P2's first one alone takes several
+    # seconds on a loaded machine
     p2 = problems["P2"]
-    one_step = Problem(p2.spec.model_copy(update={"horizon": 1}), p2.source)
+    two_steps = Problem(p2.spec.model_copy(update={"horizon": 2}), p2.source)
     planner = UctHcountPlanner(StalmSettings(search=SearchSettings(budget=2)))
-    result = planner.solve(one_step, seed=0, time_budget_s=300.0)
+    result = planner.solve(two_steps, seed=0, time_budget_s=300.0)
     assert planner.name == "uct-hcount" and result.counters.simulations >= 1
-    assert result.termination == "horizon" and len(result.plan) == 1
+    assert result.termination == "horizon" and len(result.plan) == 2
     leaves = result.details["hcount_leaves"]
     # the first root is computed from scratch; every leaf after it comes from its parent
     assert leaves["predicates_from_scratch"] >= 1
