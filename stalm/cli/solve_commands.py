@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Annotated
@@ -15,6 +14,7 @@ from stalm.cli.paths import check_output_file
 from stalm.cli.settings_options import SET_HELP, SETTINGS_HELP, command_settings, given
 from stalm.cli.solve_output import console, note_embedded, out, solve_and_report, write_pictures
 from stalm.errors import StalmError
+from stalm.files import read_json_file
 from stalm.world.problem import load_problem
 
 commands = typer.Typer()
@@ -233,10 +233,7 @@ def replay_command(
 
     if gif is not None:
         check_output_file(gif, "--gif")
-    try:
-        data = json.loads(result_file.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as error:  # ValueError: not UTF-8, not JSON
-        raise StalmError(f"{result_file}: cannot read a result ({error})") from None
+    data = read_json_file(result_file, "result file")  # a regular file, bounded, not too deep
     if not isinstance(data, dict):
         raise StalmError(f"{result_file}: not a stalm result (not a JSON object)")
     loaded = load_problem(problem or _recorded_problem(result_file, data))
