@@ -24,6 +24,13 @@ from typing import Any, Literal
 import yaml
 
 from stalm.errors import StalmError
+from stalm.files import (
+    MAX_PROBLEM_FILE_BYTES,
+    excerpt,
+    load_yaml,
+    read_text,
+    short_repr,
+)
 from stalm.planners.settings import FLAT_NAMES, RunSettings
 
 NON_NEGATIVE = ("samplers", "predicates")
@@ -53,12 +60,14 @@ def _field_type(key: str, source: str) -> Any:
     sections = _sections()
     section, _, name = key.partition(".")
     if section not in sections:
+        key = key if len(key) <= 80 and key.isprintable() else excerpt(key, 80)
         raise StalmError(
             f"{source}: unknown setting '{key}' (sections: {', '.join(sections)}; "
             f"e.g. search.c; `stalm solve P1 --show-settings` lists every key)"
         )
     fields = [f.name for f in dataclasses.fields(sections[section])]
     if name not in fields:
+        key = key if len(key) <= 80 and key.isprintable() else excerpt(key, 80)
         valid = ", ".join(f"{section}.{f}" for f in fields)
         what = f"'{section}' is a section" if not name else f"unknown setting '{key}'"
         raise StalmError(f"{source}: {what} (valid: {valid})")
@@ -120,7 +129,9 @@ def _checked(key: str, value: Any, source: str) -> Any:
     try:
         coerced = _coerce(value, hint)
     except ValueError:
-        raise StalmError(f"{source}: {key} must be {_describe(hint)}, got {value!r}") from None
+        raise StalmError(
+            f"{source}: {key} must be {_describe(hint)}, got {short_repr(value)}"
+        ) from None
     section, _, name = key.partition(".")
     if section in NON_NEGATIVE and name != "seed" and isinstance(coerced, int) and coerced < 0:
         raise StalmError(f"{source}: {key} must be an integer >= 0, got {coerced!r}")
@@ -184,19 +195,27 @@ def flatten(data: Mapping[str, Any], source: str) -> list[tuple[str, Any]]:
 def from_mapping(data: Any, source: str, base: RunSettings | None = None) -> RunSettings:
     """``base`` (default: the defaults) with the settings of a mapping (a file, a record)."""
     if not isinstance(data, Mapping):
-        raise StalmError(f"{source}: settings must be a mapping of sections, got {data!r}")
+        raise StalmError(
+            f"{source}: settings must be a mapping of sections, got {short_repr(data)}"
+        )
     return with_values(base or RunSettings(), flatten(data, source), source)
 
 
-def with_file(settings: RunSettings, path: Path) -> RunSettings:
-    """``settings`` with those of a YAML or JSON file (``--settings``)."""
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as error:
-        raise StalmError(f"--settings {path}: cannot read it ({error})") from None
-    except yaml.YAMLError as error:
-        raise StalmError(f"--settings {path}: not YAML or JSON ({error})") from None
-    return from_mapping(data or {}, str(path), settings)
+def read_settings_file(path: Path) -> Any:
+    """The data of a YAML or JSON settings file (``--settings``), with the problem files'
+    guards (:mod:`stalm.files`): a regular file of at most
+    :data:`~stalm.files.MAX_PROBLEM_FILE_BYTES`, a safe loader, and a bound on the values its
+    aliases stand for (500 bytes of nested aliases hung the old reader for minutes)."""
+    text = read_text(path, MAX_PROBLEM_FILE_BYTES, "settings file")
+    return load_yaml(text, f"--settings {path}") or {}
+
+
+def with_file(settings: RunSettings, path: Path, data: Any = None) -> RunSettings:
+    """``settings`` with those of a YAML or JSON file (``--settings``); ``data``: the file's
+    data when the caller has read it already (:func:`read_settings_file`)."""
+    if data is None:
+        data = read_settings_file(path)
+    return from_mapping(data, f"--settings {path}", settings)
 
 
 def to_dict(settings: RunSettings) -> dict[str, dict[str, Any]]:

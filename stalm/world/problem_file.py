@@ -61,8 +61,7 @@ def parse_problem(data: object, source: str = "<problem>") -> ProblemSpec:
     if not any(name in data for name in REQUIRED_FIELDS):
         # quoting any of it could print a file read by mistake (a record's "/etc/shadow")
         raise StalmError(
-            f"{source}: not a problem file (it has none of the fields "
-            f"{', '.join(REQUIRED_FIELDS)})"
+            f"{source}: not a problem file (it has none of the fields {', '.join(REQUIRED_FIELDS)})"
         )
     try:
         return ProblemSpec.model_validate(data)
