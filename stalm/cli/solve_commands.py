@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated
 
@@ -25,10 +24,10 @@ def check_solve_numbers(
     seed: int, time_budget: float | None, sims: int | None, batch: int | None
 ) -> None:
     """Numbers a solve cannot run with, as one StalmError naming the option."""
-    if seed < 0:
-        raise StalmError(f"--seed must be a non-negative integer, got {seed}")
-    if time_budget is not None and not (math.isfinite(time_budget) and time_budget > 0):
-        raise StalmError(f"--time-budget must be a positive number of seconds, got {time_budget}")
+    from stalm.planners.base import check_seed, check_time_budget
+
+    check_seed(seed, "--seed")  # the API's own checks: the same words (issue 30)
+    check_time_budget(time_budget, "--time-budget")
     if sims is not None and sims < 1:
         raise StalmError(f"--sims (N_budget) must be at least 1, got {sims}")
     if batch is not None and batch < 1:

@@ -48,3 +48,49 @@ def test_a_device_as_settings_file(monkeypatch, capsys) -> None:
     code = run_cli(monkeypatch, "solve", "P2", "--settings", "/dev/zero", "--show-settings")
     assert code == 2
     assert "/dev/zero" in one_error_line(capsys.readouterr().err)
+
+
+# ---------------------------------------------------------------------------------------------
+# item 10: the Python API checks what the CLI checks, with the same messages
+
+
+def _cli_message(monkeypatch, capsys, option: str, value: str) -> str:
+    code = run_cli(monkeypatch, "solve", "P2", "--planner", "uct", option, value)
+    assert code == 2
+    return one_error_line(capsys.readouterr().err).split(option, 1)[1]
+
+
+@pytest.mark.parametrize("planner", ["uct", "stalm", "pddlstream-adaptive"])
+@pytest.mark.parametrize(
+    ("keyword", "value", "option", "text"),
+    [
+        ("time_budget_s", float("nan"), "--time-budget", "nan"),
+        ("time_budget_s", float("inf"), "--time-budget", "inf"),
+        ("time_budget_s", 0.0, "--time-budget", "0"),
+        ("time_budget_s", -5.0, "--time-budget", "-5"),
+        ("seed", -1, "--seed", "-1"),
+    ],
+)
+def test_the_api_checks_seed_and_budget_as_the_cli_does(
+    monkeypatch, capsys, problems, planner, keyword, value, option, text
+) -> None:
+    from stalm.api import PlannerConfig, StalmError, build_planner
+
+    built = build_planner(planner, PlannerConfig(proposer="symbolic", sims=1))
+    arguments = {"seed": 0, "time_budget_s": 5.0, keyword: value}
+    started = time.monotonic()
+    with pytest.raises(StalmError) as error:
+        built.solve(problems["P2"], **arguments)
+    assert time.monotonic() - started < 1.0  # refused before any set-up
+    message = str(error.value)
+    assert message.startswith(keyword)
+    assert message.split(keyword, 1)[1] == _cli_message(monkeypatch, capsys, option, text)
+
+
+@pytest.mark.parametrize("seed", [True, 1.5, "3"])
+def test_the_api_refuses_seeds_that_are_not_integers(problems, seed) -> None:
+    from stalm.api import PlannerConfig, StalmError, build_planner
+
+    built = build_planner("uct", PlannerConfig(sims=1))
+    with pytest.raises(StalmError, match="seed must be a non-negative integer"):
+        built.solve(problems["P2"], seed=seed, time_budget_s=5.0)
