@@ -152,18 +152,24 @@ def load_yaml(text: str, where: str, max_values: int = MAX_VALUES) -> Any:
     return data
 
 
+class _NotFinite(ValueError):
+    """JSON's non-standard ``NaN``/``Infinity`` where only finite numbers belong."""
+
+
 def _no_constant(name: str) -> float:
-    raise ValueError(f"{name} is not a number stalm writes")
+    raise _NotFinite(name)
 
 
 def load_json(text: str, where: str, *, finite: bool = False) -> Any:
     """JSON text as data, refused as one StalmError line naming ``where`` when it does not
-    parse, nests too deep or holds too much; with ``finite``, ``NaN`` and ``Infinity`` are
-    refused too."""
+    parse or nests deeper than :data:`MAX_DEPTH`; with ``finite``, ``NaN`` and ``Infinity``
+    (which Python's json reads, and stalm never writes) are refused too."""
     try:
         data = json.loads(text, parse_constant=_no_constant if finite else None)
     except RecursionError:
         raise StalmError(f"{where}: nested more than {MAX_DEPTH} deep") from None
+    except _NotFinite as error:
+        raise StalmError(f"{where}: {error} is not a finite number (stalm writes none)") from None
     except ValueError as error:  # json.JSONDecodeError is one
         raise StalmError(f"{where}: not JSON ({excerpt(error, 80)})") from None
     why = too_big(data, max_values=50 * MAX_VALUES)

@@ -35,10 +35,10 @@ def read_record(path: Path, key: str | None) -> dict[str, Any]:
     starts with ``key`` (needed when the file holds more than one)."""
     text = read_text(path, MAX_RESULT_FILE_BYTES, "result file")  # regular, bounded
     try:
-        records = [load_json(text, str(path))]
+        records = [load_json(text, str(path), finite=True)]
     except StalmError:
         records = [
-            load_json(line, f"{path}:{number}")
+            load_json(line, f"{path}:{number}", finite=True)
             for number, line in enumerate(text.splitlines(), start=1)
             if line.strip()
         ]

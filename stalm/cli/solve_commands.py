@@ -232,7 +232,7 @@ def replay_command(
 
     if gif is not None:
         check_output_file(gif, "--gif")
-    data = read_json_file(result_file, "result file")  # a regular file, bounded, not too deep
+    data = read_json_file(result_file, "result file", finite=True)  # bounded, finite
     if not isinstance(data, dict):
         raise StalmError(f"{result_file}: not a stalm result (not a JSON object)")
     loaded = load_problem(problem or _recorded_problem(result_file, data))

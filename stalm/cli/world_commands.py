@@ -119,9 +119,10 @@ def render_command(
     size: Annotated[int, typer.Option(help="Pixel size of each view.")] = 640,
 ) -> None:
     """Write a top-down and a perspective image of the initial state (or a given State)."""
-    from stalm.viz.render import save_render
+    from stalm.viz.render import check_size, save_render
     from stalm.world.scene import Sim
 
+    check_size(size, "--size")
     check_output_file(output, "--output")
     loaded = load_problem(problem)
     state = loaded.initial_state

@@ -48,7 +48,7 @@ POSITION_DIGITS = 4
 
 def load_result(path: Path) -> dict[str, Any]:
     """A result file as written by ``stalm solve --json``; a StalmError names what is wrong."""
-    data = read_json_file(path, "result file")  # a regular file, bounded, not too deep
+    data = read_json_file(path, "result file", finite=True)  # bounded, finite, not too deep
     if not isinstance(data, dict):
         raise StalmError(f"{path}: not a stalm result (not a JSON object)")
     return data
