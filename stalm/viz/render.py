@@ -13,6 +13,7 @@ import pybullet as p
 from PIL import Image
 
 from stalm.errors import StalmError
+from stalm.files import replacing
 from stalm.world.scene import Sim
 from stalm.world.state import State
 
@@ -88,6 +89,9 @@ def render_state(sim: Sim, state: State, size: int = 640) -> Image.Image:
 
 def save_render(sim: Sim, state: State, path: Path, size: int = 640) -> Path:
     image = render_state(sim, state, size)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    image.save(path)
+    try:
+        with replacing(path) as temp:  # all or nothing, as every file stalm writes over
+            image.save(temp)
+    except OSError as error:
+        raise StalmError(f"{path}: cannot write the picture ({error.strerror or error})") from None
     return path
