@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 from stalm.errors import StalmError
+from stalm.files import write_replacing
 
 
 def check_output_file(path: Path, option: str) -> None:
@@ -32,19 +33,27 @@ def check_output_file(path: Path, option: str) -> None:
 
 
 def write_or_fall_back(text: str, path: Path, stem: str) -> tuple[Path, str | None]:
-    """Write ``text`` to ``path``; if that fails, to a new temporary file.
+    """Write ``text`` to ``path`` all or nothing (beside it, then renamed: a failure leaves
+    the old file); if that fails, to a new temporary file.
 
-    Returns the path written and, after a fallback, why ``path`` failed.
+    Returns the path written and, after a fallback, why ``path`` failed. A StalmError naming
+    both when neither can be written (a full disk everywhere).
     """
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text, encoding="utf-8")
+        write_replacing(path, text)
         return path, None
     except OSError as error:
         why = error.strerror or str(error)
     handle, name = tempfile.mkstemp(
         prefix=f"{stem}-{time.strftime('%Y%m%d-%H%M%S')}-", suffix=".json"
     )
-    with os.fdopen(handle, "w", encoding="utf-8") as fallback:
-        fallback.write(text)
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as fallback:
+            fallback.write(text)
+    except OSError as error:
+        Path(name).unlink(missing_ok=True)
+        raise StalmError(
+            f"{path}: cannot write it ({why}), nor a copy in {Path(name).parent} "
+            f"({error.strerror or error})"
+        ) from None
     return Path(name), why

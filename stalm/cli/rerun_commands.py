@@ -22,6 +22,7 @@ from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
 from stalm.cli.solve_output import console, note_embedded, out, solve_and_report
 from stalm.errors import StalmError
+from stalm.files import MAX_RESULT_FILE_BYTES, load_json, read_text
 from stalm.geometry.tolerance import CONTINUOUS_TOLERANCE, close_enough
 from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
 
@@ -32,17 +33,15 @@ commands = typer.Typer()
 def read_record(path: Path, key: str | None) -> dict[str, Any]:
     """The record in ``path``: a JSON object, or the line of a JSON-lines file whose key
     starts with ``key`` (needed when the file holds more than one)."""
+    text = read_text(path, MAX_RESULT_FILE_BYTES, "result file")  # regular, bounded
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        raise StalmError(f"{path}: cannot read a result ({error})") from None
-    try:
-        records = [json.loads(text)]
-    except ValueError:
-        try:
-            records = [json.loads(line) for line in text.splitlines() if line.strip()]
-        except ValueError as error:
-            raise StalmError(f"{path}: not a JSON result nor JSON lines ({error})") from None
+        records = [load_json(text, str(path), finite=True)]
+    except StalmError:
+        records = [
+            load_json(line, f"{path}:{number}", finite=True)
+            for number, line in enumerate(text.splitlines(), start=1)
+            if line.strip()
+        ]
     records = [r for r in records if isinstance(r, dict)]
     if key is not None:
         records = [r for r in records if str(r.get("key", "")).startswith(key)]

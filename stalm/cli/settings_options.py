@@ -44,17 +44,21 @@ def command_settings(
 ) -> CommandSettings:
     """The tree of one command: defaults, ``file``, then ``flags`` -- (option, dotted key,
     value) of each flag given -- then ``overrides`` (``--set``)."""
-    import yaml
-
     from stalm.planners.settings import FLAT_NAMES, RunSettings
-    from stalm.planners.settings_io import flatten, parse_override, with_file, with_values
+    from stalm.planners.settings_io import (
+        flatten,
+        parse_override,
+        read_settings_file,
+        with_file,
+        with_values,
+    )
 
     named: set[str] = set()
     settings = RunSettings()
     if file is not None:
-        settings = with_file(settings, file)
-        data = yaml.safe_load(file.read_text(encoding="utf-8")) or {}
-        named |= {FLAT_NAMES.get(key, key) for key, _ in flatten(data, str(file))}
+        data = read_settings_file(file)  # read once, with the problem files' guards
+        settings = with_file(settings, file, data)
+        named |= {FLAT_NAMES.get(key, key) for key, _ in flatten(data, f"--settings {file}")}
     for option, key, value in flags:
         settings = with_values(settings, [(key, value)], option)
         named.add(key)

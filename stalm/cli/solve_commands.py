@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 from typing import Annotated
 
@@ -15,6 +13,7 @@ from stalm.cli.paths import check_output_file
 from stalm.cli.settings_options import SET_HELP, SETTINGS_HELP, command_settings, given
 from stalm.cli.solve_output import console, note_embedded, out, solve_and_report, write_pictures
 from stalm.errors import StalmError
+from stalm.files import read_json_file
 from stalm.world.problem import load_problem
 
 commands = typer.Typer()
@@ -25,10 +24,10 @@ def check_solve_numbers(
     seed: int, time_budget: float | None, sims: int | None, batch: int | None
 ) -> None:
     """Numbers a solve cannot run with, as one StalmError naming the option."""
-    if seed < 0:
-        raise StalmError(f"--seed must be a non-negative integer, got {seed}")
-    if time_budget is not None and not (math.isfinite(time_budget) and time_budget > 0):
-        raise StalmError(f"--time-budget must be a positive number of seconds, got {time_budget}")
+    from stalm.planners.base import check_seed, check_time_budget
+
+    check_seed(seed, "--seed")  # the API's own checks: the same words (issue 30)
+    check_time_budget(time_budget, "--time-budget")
     if sims is not None and sims < 1:
         raise StalmError(f"--sims (N_budget) must be at least 1, got {sims}")
     if batch is not None and batch < 1:
@@ -235,10 +234,7 @@ def replay_command(
 
     if gif is not None:
         check_output_file(gif, "--gif")
-    try:
-        data = json.loads(result_file.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as error:  # ValueError: not UTF-8, not JSON
-        raise StalmError(f"{result_file}: cannot read a result ({error})") from None
+    data = read_json_file(result_file, "result file", finite=True)  # bounded, finite
     if not isinstance(data, dict):
         raise StalmError(f"{result_file}: not a stalm result (not a JSON object)")
     loaded = load_problem(problem or _recorded_problem(result_file, data))

@@ -159,13 +159,20 @@ def write_pictures(
     gif: Path | None,
     html: Path | None,
 ) -> None:
-    """The ``--gif`` animation and the ``--html`` page of a solve's result."""
+    """The ``--gif`` animation and the ``--html`` page of a solve's result. Each is its own
+    file: a failed animation (a full disk) still leaves the page written, then raises."""
+    failed: StalmError | None = None
     if gif is not None:
-        write_gif(problem, result, gif)
+        try:
+            write_gif(problem, result, gif)
+        except StalmError as error:
+            failed = error  # raised once the page is written (main prints it)
     if html is not None:
-        from stalm.cli.view_commands import write_view_page
+        from stalm.cli import view_commands
 
-        write_view_page(problem, result_record(result, problem, settings), html)
+        view_commands.write_view_page(problem, result_record(result, problem, settings), html)
+    if failed is not None:
+        raise failed
 
 
 def write_gif(problem: Problem, result: PlanResult, path: Path) -> None:

@@ -13,6 +13,7 @@ from rich.table import Table
 from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
 from stalm.errors import StalmError
+from stalm.files import read_json_file
 from stalm.world.problem import Problem, available_problems, load_problem
 from stalm.world.state import State
 
@@ -118,9 +119,10 @@ def render_command(
     size: Annotated[int, typer.Option(help="Pixel size of each view.")] = 640,
 ) -> None:
     """Write a top-down and a perspective image of the initial state (or a given State)."""
-    from stalm.viz.render import save_render
+    from stalm.viz.render import check_size, save_render
     from stalm.world.scene import Sim
 
+    check_size(size, "--size")
     check_output_file(output, "--output")
     loaded = load_problem(problem)
     state = loaded.initial_state
@@ -137,10 +139,7 @@ def read_state_file(path: Path, problem: Problem | None = None) -> State:
     With ``problem``, the State must hold exactly the problem's objects and only its doors,
     so the simulator is never asked to place a body it does not have.
     """
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError, RecursionError) as error:  # not UTF-8, not JSON, too deep
-        raise StalmError(f"{path}: cannot read a State from it ({error})") from None
+    data = read_json_file(path, "State file")  # a regular file, bounded, not too deep
     if isinstance(data, dict) and "state" in data:
         data = data["state"]
     try:

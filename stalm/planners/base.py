@@ -8,12 +8,15 @@ task plans a proposer offered. ``to_json`` is what ``stalm solve --json`` writes
 
 from __future__ import annotations
 
+import math
+import numbers
 import os
 from dataclasses import asdict, dataclass, field
 from typing import Any, Protocol
 
 from stalm.domain.params import Action
 from stalm.domain.serialize import action_to_json
+from stalm.errors import StalmError
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -85,6 +88,29 @@ class PlanResult:
             "llm_plan_failures": dict(self.llm_plan_failures),
             "details": self.details,
         }
+
+
+def check_seed(seed: object, name: str = "seed") -> int:
+    """``seed`` if it is an integer >= 0, else a StalmError naming ``name``. The CLI
+    (``--seed``) and every planner's :meth:`Planner.solve` (``seed``) check with this one
+    function, so the Python API refuses what the command refuses, in the same words (a
+    negative seed failed deep inside numpy)."""
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or int(seed) < 0:
+        raise StalmError(f"{name} must be a non-negative integer, got {seed!r}")
+    return int(seed)
+
+
+def check_time_budget(budget: object, name: str = "time_budget_s") -> float | None:
+    """``budget`` if it is None (the problem's) or a finite number of seconds above 0, else a
+    StalmError naming ``name`` (NaN disabled the deadline: every comparison with it is
+    false)."""
+    if budget is None:
+        return None
+    if isinstance(budget, numbers.Real) and not isinstance(budget, bool):
+        seconds = float(budget)
+        if math.isfinite(seconds) and seconds > 0:
+            return seconds
+    raise StalmError(f"{name} must be a positive number of seconds, got {budget!r}")
 
 
 class Planner(Protocol):

@@ -26,7 +26,7 @@ import numpy as np
 from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
 from stalm.domain.samplers import SamplerSettings
-from stalm.planners.base import PlanResult
+from stalm.planners.base import PlanResult, check_seed, check_time_budget
 from stalm.planners.config import Progress
 from stalm.planners.episode import Episode
 from stalm.planners.predicate_memo import PredicateMemo
@@ -182,6 +182,8 @@ class OnlinePlanner(ABC):
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
         """Plan and execute until the goal, the horizon or the time budget (None: the
         problem's), in a simulator of the trial's own that is always closed."""
+        seed = check_seed(seed)
+        time_budget_s = check_time_budget(time_budget_s)
         episode = Episode.begin(problem, time_budget_s)
         domain = Domain(
             problem,

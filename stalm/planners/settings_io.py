@@ -24,6 +24,13 @@ from typing import Any, Literal
 import yaml
 
 from stalm.errors import StalmError
+from stalm.files import (
+    MAX_PROBLEM_FILE_BYTES,
+    excerpt,
+    load_yaml,
+    read_text,
+    short_repr,
+)
 from stalm.planners.settings import FLAT_NAMES, RunSettings
 
 NON_NEGATIVE = ("samplers", "predicates")
@@ -65,9 +72,10 @@ def _field_type(key: str, source: str) -> Any:
     key that names a section is no value either)."""
     sections = _sections()
     section, _, rest = key.partition(".")
+    shown = key if len(key) <= 80 and key.isprintable() else excerpt(key, 80)
     if section not in sections:
         raise StalmError(
-            f"{source}: unknown setting '{key}' (sections: {', '.join(sections)}; "
+            f"{source}: unknown setting '{shown}' (sections: {', '.join(sections)}; "
             f"e.g. search.c; `stalm solve P1 --show-settings` lists every key)"
         )
     cls, path = sections[section], section
@@ -77,12 +85,12 @@ def _field_type(key: str, source: str) -> Any:
         name = names.pop(0) if names else ""
         if name not in fields:
             valid = ", ".join(f"{path}.{f}" for f in fields)
-            what = f"'{path}' is a section" if not name else f"unknown setting '{key}'"
+            what = f"'{path}' is a section" if not name else f"unknown setting '{shown}'"
             raise StalmError(f"{source}: {what} (valid: {valid})")
         hint = _hints(cls)[name]
         if not _is_section(hint):
             if names:
-                raise StalmError(f"{source}: unknown setting '{key}' ({path}.{name} is a value)")
+                raise StalmError(f"{source}: unknown setting '{shown}' ({path}.{name} is a value)")
             return hint
         cls, path = hint, f"{path}.{name}"
 
@@ -142,7 +150,9 @@ def _checked(key: str, value: Any, source: str) -> Any:
     try:
         coerced = _coerce(value, hint)
     except ValueError:
-        raise StalmError(f"{source}: {key} must be {_describe(hint)}, got {value!r}") from None
+        raise StalmError(
+            f"{source}: {key} must be {_describe(hint)}, got {short_repr(value)}"
+        ) from None
     section, _, name = key.partition(".")
     if section in NON_NEGATIVE and name != "seed" and isinstance(coerced, int) and coerced < 0:
         raise StalmError(f"{source}: {key} must be an integer >= 0, got {coerced!r}")
@@ -226,19 +236,27 @@ def flatten(data: Mapping[str, Any], source: str) -> list[tuple[str, Any]]:
 def from_mapping(data: Any, source: str, base: RunSettings | None = None) -> RunSettings:
     """``base`` (default: the defaults) with the settings of a mapping (a file, a record)."""
     if not isinstance(data, Mapping):
-        raise StalmError(f"{source}: settings must be a mapping of sections, got {data!r}")
+        raise StalmError(
+            f"{source}: settings must be a mapping of sections, got {short_repr(data)}"
+        )
     return with_values(base or RunSettings(), flatten(data, source), source)
 
 
-def with_file(settings: RunSettings, path: Path) -> RunSettings:
-    """``settings`` with those of a YAML or JSON file (``--settings``)."""
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as error:
-        raise StalmError(f"--settings {path}: cannot read it ({error})") from None
-    except yaml.YAMLError as error:
-        raise StalmError(f"--settings {path}: not YAML or JSON ({error})") from None
-    return from_mapping(data or {}, str(path), settings)
+def read_settings_file(path: Path) -> Any:
+    """The data of a YAML or JSON settings file (``--settings``), with the problem files'
+    guards (:mod:`stalm.files`): a regular file of at most
+    :data:`~stalm.files.MAX_PROBLEM_FILE_BYTES`, a safe loader, and a bound on the values its
+    aliases stand for (500 bytes of nested aliases hung the old reader for minutes)."""
+    text = read_text(path, MAX_PROBLEM_FILE_BYTES, "settings file")
+    return load_yaml(text, f"--settings {path}") or {}
+
+
+def with_file(settings: RunSettings, path: Path, data: Any = None) -> RunSettings:
+    """``settings`` with those of a YAML or JSON file (``--settings``); ``data``: the file's
+    data when the caller has read it already (:func:`read_settings_file`)."""
+    if data is None:
+        data = read_settings_file(path)
+    return from_mapping(data, f"--settings {path}", settings)
 
 
 def _plain(value: Any) -> Any:

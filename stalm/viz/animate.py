@@ -10,6 +10,8 @@ from pathlib import Path
 from PIL import Image
 
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
+from stalm.errors import StalmError
+from stalm.files import replacing
 from stalm.motion.arm_motion import interpolate_waypoints
 from stalm.motion.base_motion import densify
 from stalm.viz.render import perspective, top_down
@@ -96,13 +98,20 @@ def _index_of(dense: list[tuple[float, ...]], conf: tuple[float, ...]) -> int:
 
 
 def save_gif(frames: Sequence[Image.Image], path: Path, frame_ms: int = 120) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    frames[0].save(
-        path,
-        save_all=True,
-        append_images=list(frames[1:]),
-        duration=frame_ms,
-        loop=0,
-        optimize=True,
-    )
+    """Write the animation to ``path`` all or nothing (:func:`stalm.files.replacing`: a full
+    disk leaves the file that was there); a StalmError naming the path if it cannot."""
+    try:
+        with replacing(path) as temp:
+            frames[0].save(
+                temp,
+                save_all=True,
+                append_images=list(frames[1:]),
+                duration=frame_ms,
+                loop=0,
+                optimize=True,
+            )
+    except OSError as error:
+        raise StalmError(
+            f"{path}: cannot write the animation ({error.strerror or error})"
+        ) from None
     return path

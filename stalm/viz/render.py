@@ -12,6 +12,8 @@ import numpy as np
 import pybullet as p
 from PIL import Image
 
+from stalm.errors import StalmError
+from stalm.files import replacing
 from stalm.world.scene import Sim
 from stalm.world.state import State
 
@@ -59,8 +61,23 @@ def perspective(sim: Sim, width: int = 640, height: int = 480) -> Image.Image:
     return _camera_image(sim, view, projection, width, height)
 
 
+MIN_SIZE = 16
+MAX_SIZE = 4096
+"""Pixels per view: PyBullet's renderer divided by zero below 1, aborted on a negative size
+and crashed the process at 30000 (a 60000 x 30000 canvas)."""
+
+
+def check_size(size: int, name: str = "size") -> int:
+    """``size`` if it is within [:data:`MIN_SIZE`, :data:`MAX_SIZE`], else a StalmError
+    naming ``name`` (``--size`` on the command line)."""
+    if not MIN_SIZE <= size <= MAX_SIZE:
+        raise StalmError(f"{name} must be between {MIN_SIZE} and {MAX_SIZE} pixels, got {size}")
+    return size
+
+
 def render_state(sim: Sim, state: State, size: int = 640) -> Image.Image:
     """Top-down and perspective views of ``state`` side by side."""
+    check_size(size)
     sim.set_state(state)
     left = top_down(sim, size, size)
     right = perspective(sim, size, size)
@@ -72,6 +89,9 @@ def render_state(sim: Sim, state: State, size: int = 640) -> Image.Image:
 
 def save_render(sim: Sim, state: State, path: Path, size: int = 640) -> Path:
     image = render_state(sim, state, size)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    image.save(path)
+    try:
+        with replacing(path) as temp:  # all or nothing, as every file stalm writes over
+            image.save(temp)
+    except OSError as error:
+        raise StalmError(f"{path}: cannot write the picture ({error.strerror or error})") from None
     return path

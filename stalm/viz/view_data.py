@@ -18,7 +18,6 @@ note. Anything an older file lacks (the per-step record) becomes a note, never a
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -29,6 +28,7 @@ import pybullet as p
 
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
 from stalm.errors import StalmError
+from stalm.files import read_json_file
 from stalm.planners.replay import replay_result_json
 from stalm.planners.step_log import DECISIONS
 from stalm.viz.animate import plan_motion
@@ -48,10 +48,7 @@ POSITION_DIGITS = 4
 
 def load_result(path: Path) -> dict[str, Any]:
     """A result file as written by ``stalm solve --json``; a StalmError names what is wrong."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as error:  # ValueError: not UTF-8, not JSON
-        raise StalmError(f"{path}: cannot read a result ({error})") from None
+    data = read_json_file(path, "result file", finite=True)  # bounded, finite, not too deep
     if not isinstance(data, dict):
         raise StalmError(f"{path}: not a stalm result (not a JSON object)")
     return data

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from stalm.errors import StalmError
+from stalm.files import write_replacing
 
 PAGE_TITLE = "stalm view"
 
@@ -78,10 +79,9 @@ def render_page(data: dict[str, Any]) -> str:
 def write_page(data: dict[str, Any], path: Path) -> int:
     """Write the page to ``path``; its size in bytes. A path that cannot be written is a
     StalmError naming it."""
-    text = render_page(data)
+    payload = render_page(data).encode("utf-8")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text, encoding="utf-8")
+        write_replacing(path, payload)  # all or nothing: a full disk keeps the old page
     except OSError as error:
         raise StalmError(f"{path}: cannot write the page ({error.strerror or error})") from None
-    return len(text.encode("utf-8"))
+    return len(payload)

@@ -1,9 +1,13 @@
 """Reading a problem file (YAML) into a validated :class:`~stalm.world.spec.ProblemSpec`.
 
 The file's side of loading: reading its text, refusing what is no problem file before it is
-validated (not UTF-8, too long, not YAML, an alias bomb), and turning pydantic's validation
-errors into one :class:`~stalm.errors.StalmError` naming the file and the field path
-(``problems/p5.yaml: objects[2].radius: must be greater than 0``). Kept apart from the spec
+validated (not a regular file, too long, not UTF-8, not YAML, an alias bomb: the guards of
+:mod:`stalm.files`, which settings files share), and turning pydantic's validation errors into
+one :class:`~stalm.errors.StalmError` naming the file and the field path
+(``problems/p5.yaml: objects[2].radius: must be greater than 0``). A problem path can come
+from a result or record someone sent, so an error never quotes the file beyond a short
+escaped excerpt: a file that has none of a problem's fields (``/etc/passwd`` named as a
+problem) is "not a problem file", and field names are cut short. Kept apart from the spec
 models (:mod:`stalm.world.spec`), which say what a valid problem is and know nothing of files.
 """
 
@@ -11,19 +15,28 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import yaml
 from pydantic import ValidationError
 
 from stalm.errors import StalmError
+from stalm.files import MAX_PROBLEM_FILE_BYTES, excerpt, load_yaml, read_text
 from stalm.world.spec import ProblemSpec
+
+MAX_ERROR_LINES = 6
+"""Validation problems listed at most (a file with hundreds of them is not the user's typo)."""
+_FIELD_CHARS = 40
+"""Characters of one field name quoted in an error."""
+REQUIRED_FIELDS = ("name", "regions", "objects", "robot", "goal")
 
 
 def _format_validation_error(path: str, error: ValidationError) -> str:
+    items = error.errors()
     lines = []
-    for item in error.errors():
+    for item in items[:MAX_ERROR_LINES]:
         location = _format_location(item.get("loc", ()))
         message = str(item.get("msg", "invalid")).removeprefix("Value error, ")
         lines.append(f"{path}: {location}: {message}" if location else f"{path}: {message}")
+    if len(items) > MAX_ERROR_LINES:
+        lines.append(f"{path}: ... and {len(items) - MAX_ERROR_LINES} more")
     return "\n".join(lines)
 
 
@@ -33,14 +46,23 @@ def _format_location(loc: tuple[object, ...]) -> str:
         if isinstance(part, int):
             text += f"[{part}]"
         else:
-            text += f".{part}" if text else str(part)
+            name = str(part)
+            if len(name) > _FIELD_CHARS or not name.isprintable():
+                name = excerpt(name, _FIELD_CHARS)
+            text += f".{name}" if text else name
     return text
 
 
 def parse_problem(data: object, source: str = "<problem>") -> ProblemSpec:
     """Validate already-loaded problem data; errors name ``source`` and the field."""
     if not isinstance(data, dict):
-        raise StalmError(f"{source}: a problem file must be a mapping of fields, got {data!r:.60}")
+        kind = "text" if isinstance(data, str) else type(data).__name__
+        raise StalmError(f"{source}: a problem file must be a mapping of fields, got {kind}")
+    if not any(name in data for name in REQUIRED_FIELDS):
+        # quoting any of it could print a file read by mistake (a record's "/etc/shadow")
+        raise StalmError(
+            f"{source}: not a problem file (it has none of the fields {', '.join(REQUIRED_FIELDS)})"
+        )
     try:
         return ProblemSpec.model_validate(data)
     except ValidationError as error:
@@ -48,55 +70,8 @@ def parse_problem(data: object, source: str = "<problem>") -> ProblemSpec:
 
 
 def load_problem_file(path: Path) -> ProblemSpec:
-    """Read and validate one problem file."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise StalmError(f"{path}: cannot read problem file ({error.strerror})") from None
-    except UnicodeDecodeError as error:
-        raise StalmError(
-            f"{path}: not a problem file (not UTF-8 text: byte {error.object[error.start]:#04x} "
-            f"at offset {error.start})"
-        ) from None
-    if len(text) > MAX_PROBLEM_FILE_CHARS:
-        raise StalmError(
-            f"{path}: a problem file of {len(text)} characters is too long "
-            f"(at most {MAX_PROBLEM_FILE_CHARS})"
-        )
-    try:
-        data = yaml.load(text, Loader=_LOADER)  # a safe loader (libyaml's when available)
-    except yaml.YAMLError as error:
-        raise StalmError(f"{path}: not valid YAML: {error}") from None
-    except (ValueError, OverflowError, RecursionError) as error:  # e.g. date 2001-02-30
-        raise StalmError(f"{path}: not valid YAML: {type(error).__name__}: {error}") from None
-    problem = _shared_or_huge(data)
-    if problem is not None:
-        raise StalmError(f"{path}: {problem}")
+    """Read and validate one problem file (a regular file of at most
+    :data:`~stalm.files.MAX_PROBLEM_FILE_BYTES`)."""
+    text = read_text(path, MAX_PROBLEM_FILE_BYTES, "problem file")
+    data = load_yaml(text, str(path))
     return parse_problem(data, str(path))
-
-
-MAX_PROBLEM_FILE_CHARS = 1_000_000
-"""The six problems are 3 to 6 kB; a file a thousand times larger is not a problem file."""
-
-
-_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-"""libyaml's safe loader is fast and limits nesting; the pure-Python one recurses for seconds."""
-MAX_PROBLEM_NODES = 100_000
-
-
-def _shared_or_huge(data: object) -> str | None:
-    """Why loaded YAML is no problem file: too many values once aliases are expanded (a few
-    lines of nested ``*name`` aliases stand for billions of values, or a cycle for infinitely
-    many, and would validate for hours). The six problems hold about a thousand."""
-    stack = [data]
-    count = 0
-    while stack:
-        node = stack.pop()
-        count += 1
-        if count > MAX_PROBLEM_NODES:
-            return f"more than {MAX_PROBLEM_NODES} values (aliases expanded): not a problem file"
-        if isinstance(node, dict):
-            stack.extend(node.values())
-        elif isinstance(node, list):
-            stack.extend(node)
-    return None

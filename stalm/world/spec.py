@@ -15,32 +15,21 @@ standing pose side along the region's +x, v to the left), so layouts read like t
 from __future__ import annotations
 
 import math
-import re
 from typing import Annotated, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from stalm.errors import StalmError
 from stalm.geometry.directions import DIRECTIONS
-
-_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,63}")
-
-
-def _check_name(name: str) -> str:
-    """Names go into PDDL, prompts, replies and terminals: letters, digits and underscores."""
-    if not _NAME.fullmatch(name):
-        raise ValueError(
-            f"{name!r:.80} is not a name: use up to 64 letters, digits and '_', starting with a "
-            "letter (names are written into PDDL and prompts)"
-        )
-    return name
-
-
-Name = Annotated[str, AfterValidator(_check_name)]
-Positive = Annotated[float, Field(gt=0)]
-Vec2 = tuple[float, float]
-Vec3 = tuple[float, float, float]
-RGBA = tuple[float, float, float, float]
+from stalm.world.spec_values import (
+    MAX_FLOOR_SIDE,
+    RGBA,
+    Coordinate,
+    Name,
+    Positive,
+    Vec2,
+    Vec3,
+)
 
 
 class _Spec(BaseModel):
@@ -54,7 +43,7 @@ class WallSpec(_Spec):
     name: Name
     center: Vec3
     size: tuple[Positive, Positive, Positive]
-    yaw: float = 0.0
+    yaw: Coordinate = 0.0
     color: RGBA = (0.75, 0.75, 0.72, 1.0)
 
 
@@ -69,7 +58,7 @@ class RegionSpec(_Spec):
     name: Name
     room: Name
     center: Vec2
-    yaw: float = 0.0
+    yaw: Coordinate = 0.0
     size: tuple[Positive, Positive] = Field(description="footprint of the box (x, y) in its frame")
     top: Positive = Field(description="height of the placement surface above the floor")
     thickness: Positive | None = Field(
@@ -107,8 +96,8 @@ class DoorSpec(_Spec):
     width: Positive
     height: Positive = 2.0
     thickness: Positive = 0.05
-    closed_yaw: float
-    open_yaw: float
+    closed_yaw: Coordinate
+    open_yaw: Coordinate
     handle_height: Positive = 1.05
     handle_offset: Positive | None = None
     base_poses: tuple[Vec3, ...] = Field(min_length=1)
@@ -137,7 +126,7 @@ class ObjectSpec(_Spec):
     size: tuple[Positive, Positive, Positive] | None = None
     on: str
     at: Vec2 = Field(description="start position (u, v) in the region's frame")
-    yaw: float = Field(default=0.0, description="start yaw relative to the region's frame")
+    yaw: Coordinate = Field(default=0.0, description="start yaw relative to the region's frame")
     color: RGBA = (0.8, 0.2, 0.2, 1.0)
 
     @model_validator(mode="after")
@@ -190,7 +179,7 @@ class ProblemSpec(_Spec):
     description: str = ""
     floor: tuple[Vec2, Vec2] = ((-5.0, -5.0), (5.0, 5.0))
     horizon: int = Field(default=20, gt=0)
-    time_budget_s: Positive = 300.0
+    time_budget_s: Annotated[float, Field(gt=0)] = 300.0
     walls: tuple[WallSpec, ...] = ()
     regions: tuple[RegionSpec, ...] = Field(min_length=1)
     doors: tuple[DoorSpec, ...] = ()
@@ -278,6 +267,11 @@ class ProblemSpec(_Spec):
         (x0, y0), (x1, y1) = self.floor
         if not (x0 < x1 and y0 < y1):
             raise ValueError(f"floor: {self.floor} is not (min corner, max corner)")
+        if x1 - x0 > MAX_FLOOR_SIDE or y1 - y0 > MAX_FLOOR_SIDE:
+            raise ValueError(
+                f"floor: {self.floor} is more than {MAX_FLOOR_SIDE:g} m on a side (the scene "
+                "check floods it on a 10 cm grid)"
+            )
         poses: list[tuple[str, Vec3]] = [("robot.base", self.robot.base)]
         poses += [(f"regions[{i}].base_pose", r.base_pose) for i, r in enumerate(self.regions)]
         for i, door in enumerate(self.doors):

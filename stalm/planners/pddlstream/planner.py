@@ -31,7 +31,14 @@ from stalm.domain.params import Action
 from stalm.domain.samplers import SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.planners.base import Counters, PhaseTimes, PlanResult, cpu_seconds
+from stalm.planners.base import (
+    Counters,
+    PhaseTimes,
+    PlanResult,
+    check_seed,
+    check_time_budget,
+    cpu_seconds,
+)
 from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, Streams
 from stalm.planners.pddlstream.execute import build_action, learn_from
 from stalm.planners.pddlstream.knowledge import Knowledge
@@ -64,6 +71,8 @@ class PDDLStreamPlanner:
             self.progress(message)
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
+        seed = check_seed(seed)
+        time_budget_s = check_time_budget(time_budget_s)
         start_time = time.monotonic()
         cpu_start = cpu_seconds()
         budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
