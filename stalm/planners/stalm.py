@@ -195,8 +195,7 @@ class StalmPlanner(TreePlanner):
     ``proposer.kind`` is taken to be its kind (:func:`proposer_kind`): that kind decides the
     defaults that depend on the proposer (feedback and backtracks), so
     ``StalmPlanner(SymbolicProposer())`` runs what ``stalm solve --proposer symbolic`` runs.
-    ``run_settings`` is the tree as the planner runs it, ``settings`` what its steps read of
-    it (:class:`StalmSettings`).
+    ``settings`` on the planner is what its steps read of the tree (:class:`StalmSettings`).
     """
 
     name = "stalm"
@@ -209,10 +208,10 @@ class StalmPlanner(TreePlanner):
         settings: RunSettings | None = None,
         progress: Progress | None = None,
     ) -> None:
+        run_settings = with_proposer_kind(settings or RunSettings(), proposer)
         self.proposer = proposer
-        self.run_settings = with_proposer_kind(settings or RunSettings(), proposer)
-        self.settings = StalmSettings.of(self.run_settings, self.name, proposes=True)
-        self.sampling = Sampling.of(self.run_settings)
+        self.settings = StalmSettings.of(run_settings, self.name, proposes=True)
+        self.sampling = Sampling.of(run_settings)
         self.progress = progress
 
     def start(self, trial: Trial) -> StalmStep:

@@ -29,9 +29,9 @@ class UctPlanner(TreePlanner):
     def __init__(
         self, settings: RunSettings | None = None, progress: Progress | None = None
     ) -> None:
-        self.run_settings = settings or RunSettings()
-        self.settings = StalmSettings.of(self.run_settings, self.name, proposes=False)
-        self.sampling = Sampling.of(self.run_settings)
+        run_settings = settings or RunSettings()
+        self.settings = StalmSettings.of(run_settings, self.name, proposes=False)
+        self.sampling = Sampling.of(run_settings)
         self.progress = progress
 
     def policies(self, trial: Trial) -> SearchPolicies:
