@@ -5,6 +5,11 @@ Everything here is re-exported from the module that owns it, so this file is the
 to look (and the one the README's examples import from); it imports the planners, so it sits
 at the top of the layer order beside the CLI. ``import stalm`` alone stays light.
 
+A planner takes a run's settings tree (:class:`RunSettings`, whose defaults are the ones
+``stalm solve`` runs); :func:`with_overrides` sets its dotted keys as ``--set`` does
+(``"execution.feedback=true"``) and :func:`with_values` with typed values
+(``("execution.feedback", True)``).
+
 A proposer is any object with a ``name`` and a ``propose`` method of the
 :class:`TaskPlanProposer` form; add a ``feedback`` keyword (:class:`FeedbackProposer`) and
 STaLM also tells it which steps failed.
@@ -20,7 +25,8 @@ from stalm.planners.noisy import NoisyProposer
 from stalm.planners.proposers import FeedbackProposer, LLMProposer, Proposal, TaskPlanProposer
 from stalm.planners.registry import PlannerConfig, RunSettings, build_planner, planners
 from stalm.planners.replay import ReplayReport, replay_plan
-from stalm.planners.stalm import StalmPlanner, StalmSettings
+from stalm.planners.settings_io import with_overrides, with_values
+from stalm.planners.stalm import StalmPlanner
 from stalm.planners.symbolic import SymbolicProposer
 from stalm.world.problem import Problem, load_problem
 from stalm.world.state import State
@@ -42,7 +48,6 @@ __all__ = [
     "RunSettings",
     "StalmError",
     "StalmPlanner",
-    "StalmSettings",
     "State",
     "SymbolicProposer",
     "TaskPlanProposer",
@@ -50,4 +55,6 @@ __all__ = [
     "load_problem",
     "planners",
     "replay_plan",
+    "with_overrides",
+    "with_values",
 ]

@@ -13,74 +13,65 @@ the registry imports the planners: imports go one way.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 
-from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.prompt import PromptOptions
-from stalm.planners.settings import FLAT_NAMES, PROPOSER_KINDS, RunSettings
+from stalm.planners.settings import FLAT_NAMES, RunSettings
 from stalm.planners.settings_io import with_values
 
 Progress = Callable[[str], None]
 """Where a planner reports what it is doing (``stalm solve`` prints it)."""
 
 
+_TREE = RunSettings()
+"""The settings tree's defaults, which :class:`PlannerConfig`'s fields take as theirs."""
+
+
 @dataclass(frozen=True)
 class PlannerConfig:
     """The usual choices about a planner, flat; ``None`` means the planner's paper default.
     Each field is one key of the settings tree (:data:`~stalm.planners.settings.FLAT_NAMES`;
-    ``prompt`` is its ``prompt`` section), with the tree's default."""
+    ``prompt`` is its ``prompt`` section), with the tree's default, read from the tree; the
+    tree's sections check the values (:meth:`to_settings`)."""
 
-    llm: str | None = None
+    llm: str | None = _TREE.llm.backend
     """Backend spec as ``--llm`` takes it (None: $STALM_LLM or the embedded model)."""
-    proposer: str = "llm"
+    proposer: str = _TREE.proposer.kind
     """Where STaLM's task plans come from: 'llm', 'symbolic' or 'noisy' (the tree's
     ``proposer.noise`` section configures the noisy one)."""
-    sims: int | None = None
+    sims: int | None = _TREE.search.sims
     """N_budget; None gives the planner's default (30 for STaLM, 35 for the UCT baselines)."""
-    batch: int = 5
+    batch: int = _TREE.search.batch
     """N_batch: replies per query."""
-    constrained: bool | None = None
+    constrained: bool | None = _TREE.llm.constrained
     """Grammar-constrained replies; None: on for the embedded model only."""
-    prompt: PromptOptions = field(default_factory=PromptOptions)
-    cache_mode: str = "use"
+    prompt: PromptOptions = _TREE.prompt
+    cache_mode: str = _TREE.llm.cache
     """Reply cache: use, refresh, off or replay."""
-    cache_file: str | None = None
+    cache_file: str | None = _TREE.llm.cache_file
     """The reply cache's SQLite file (None: the default under $STALM_CACHE_DIR)."""
-    feedback: bool | None = None
+    feedback: bool | None = _TREE.execution.feedback
     """Geometric feedback to the proposer; None: on for the symbolic proposer, off for a
     language model (the paper's method; ``--feedback`` turns it on)."""
-    reuse_tree: bool = True
+    reuse_tree: bool = _TREE.execution.reuse_tree
     """Keep the executed child's subtree between real steps (the authors' loop)."""
-    execution: str = "progress"
+    execution: str = _TREE.execution.rule
     """What an online tree planner executes without a goal plan: 'progress' (search on
     while nothing promises progress) or 'best_q' (the authors' rule)."""
-    kappa_tries: int = 3
+    kappa_tries: int = _TREE.execution.kappa_tries
     """κ draws per task-plan step in Concretize: the authors' 3 (Algorithm 2 draws 1; with
     one, OPEN's single try fails a third of the task plans at their first step)."""
-    backtracks: int | None = None
+    backtracks: int | None = _TREE.execution.backtracks
     """Concretize re-draws a placement whose object blocks a later step at most this many
     times per plan; None: 6 with geometric feedback, 0 without (Algorithm 2)."""
-    goal_atom_lost: float = 3.0
+    goal_atom_lost: float = _TREE.rewards.goal_atom_lost
     """Reward taken back when an action makes a goal conjunct false (0: the authors')."""
-    goal_relations_only: bool = True
+    goal_relations_only: bool = _TREE.proposer.goal_relations_only
     """The symbolic proposer grounds relative placements only for the goal's relations."""
 
     def __post_init__(self) -> None:
-        if self.proposer not in PROPOSER_KINDS:
-            raise StalmError(
-                f"unknown proposer '{self.proposer}' (available: {', '.join(PROPOSER_KINDS)})"
-            )
-        if self.batch < 1:
-            raise StalmError(f"--batch (N_batch) must be at least 1, got {self.batch}")
-        if self.sims is not None and self.sims < 1:
-            raise StalmError(f"--sims (N_budget) must be at least 1, got {self.sims}")
-        if self.execution not in ("progress", "best_q"):
-            raise StalmError(
-                f"unknown execution rule '{self.execution}' (available: progress, best_q)"
-            )
-        if self.kappa_tries < 1:
-            raise StalmError(f"kappa_tries must be at least 1, got {self.kappa_tries}")
+        self.to_settings()  # the tree's sections check every value
 
     def to_settings(self) -> RunSettings:
         """The settings tree these flat choices name (everything else at its default)."""

@@ -56,17 +56,30 @@ def failed_plan(plan: ConcretePlan) -> FailedPlan:
     return FailedPlan(plan.task_plan.actions, kind, reason, plan.failed_step)
 
 
-@dataclass
 class IterativeReplanningPlanner(OnlinePlanner):
-    """One task plan per query, re-asked with failure feedback, one step after 5 failures."""
+    """One task plan per query, re-asked with failure feedback, one step after 5 failures.
+
+    ``settings`` is the run's settings tree (None: :class:`RunSettings`' defaults, which
+    ``stalm solve --planner iterative-replanning`` runs): the prompt options, whether replies
+    are constrained (``llm.constrained``, None: for the embedded model only) and the
+    sampling come from it; ``settings`` on the planner holds the method's own constants,
+    which the tree does not hold."""
 
     name = "iterative-replanning"
-    backend: LLMBackend
-    constrained: bool = False
-    options: PromptOptions = field(default_factory=PromptOptions)
-    settings: ReplanningSettings = field(default_factory=ReplanningSettings)
-    progress: Progress | None = None
-    sampling: Sampling = field(default_factory=Sampling)
+
+    def __init__(
+        self,
+        backend: LLMBackend,
+        settings: RunSettings | None = None,
+        progress: Progress | None = None,
+    ) -> None:
+        run_settings = settings or RunSettings()
+        self.backend = backend
+        self.constrained: bool = use_constraint(run_settings, backend)
+        self.options: PromptOptions = run_settings.prompt
+        self.settings = ReplanningSettings()
+        self.sampling = Sampling.of(run_settings)
+        self.progress = progress
 
     @property
     def occlusion(self) -> bool:
@@ -166,11 +179,4 @@ def build_iterative_replanning(
     settings: RunSettings, progress: Progress | None
 ) -> IterativeReplanningPlanner:
     """The registry's builder: the configured (cached) backend and prompt options."""
-    backend = llm_backend(settings)
-    return IterativeReplanningPlanner(
-        backend,
-        constrained=use_constraint(settings, backend),
-        options=settings.prompt,
-        progress=progress,
-        sampling=Sampling.of(settings),
-    )
+    return IterativeReplanningPlanner(llm_backend(settings), settings, progress)

@@ -31,7 +31,7 @@ import json
 import time
 from collections.abc import Callable, Iterable
 from contextlib import nullcontext
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -256,31 +256,57 @@ def llm_mcts_policies(settings: SearchSettings, prior: LLMPrior) -> SearchPolici
 
 @dataclass(frozen=True)
 class LlmMctsSettings:
-    """§4.2: N_budget = 35 simulations per real step, c = 50, 5 samples, 0.5 uniform mixing."""
+    """What LLM-MCTS reads of a run's settings tree (§4.2: N_budget = 35 simulations per real
+    step, c = 50, N_batch = 5 samples per prior), built by :meth:`of`; the tree holds the
+    defaults of all but ``uniform_weight``, a constant of the method the tree does not hold."""
 
-    search: SearchSettings = field(default_factory=lambda: SearchSettings(budget=LLM_MCTS_BUDGET))
-    samples: int = 5
-    uniform_weight: float = 0.5
-    occlusion_predicates: bool = True
+    search: SearchSettings
+    """The search's constants with LLM-MCTS's N_budget (``search``)."""
+    samples: int
+    """Replies per prior (``search.batch``)."""
+    occlusion_predicates: bool
     """Compute occlusion literals for the prompt (False when the prompt does not show them)."""
-    reuse_tree: bool = True
+    reuse_tree: bool
     """Keep the executed child's subtree, and its nodes' priors, as the next step's tree
     (the authors' loop, through the online base as every online tree planner does; the
     settings tree's ``execution.reuse_tree``). Off: a new tree every real step whose nodes
     ask the model anew."""
-    rewards: RewardSettings = field(default_factory=RewardSettings)
+    rewards: RewardSettings
     """R's constants (the settings tree's ``rewards``)."""
+    uniform_weight: float = 0.5
+    """Weight of the uniform distribution mixed into the votes (the authors' 0.5)."""
+
+    @classmethod
+    def of(cls, settings: RunSettings) -> LlmMctsSettings:
+        search = settings.search
+        return cls(
+            search=search.search_settings(search.budget_for(LlmMctsPlanner.name)),
+            samples=search.batch,
+            occlusion_predicates=settings.prompt.occlusion_predicates,
+            reuse_tree=settings.execution.reuse_tree,
+            rewards=settings.rewards,
+        )
 
 
-@dataclass
 class LlmMctsPlanner(ConfiguredPlanner):
-    """LLM-MCTS run online: search from the current state, execute, repeat."""
+    """LLM-MCTS run online: search from the current state, execute, repeat. ``settings`` is
+    the run's settings tree (None: :class:`RunSettings`' defaults, which ``stalm solve
+    --planner llm-mcts`` runs); ``settings`` on the planner is what it reads of it."""
 
     name = "llm-mcts"
-    proposer: TaskPlanProposer
-    settings: LlmMctsSettings = field(default_factory=LlmMctsSettings)
-    progress: Progress | None = None
-    sampling: Sampling = field(default_factory=Sampling)
+    settings: LlmMctsSettings
+
+    def __init__(
+        self,
+        proposer: TaskPlanProposer,
+        settings: RunSettings | None = None,
+        progress: Progress | None = None,
+    ) -> None:
+        run_settings = settings or RunSettings()
+        self.proposer = proposer
+        self.settings = LlmMctsSettings.of(run_settings)
+        self.sampling = Sampling.of(run_settings)
+        self.progress = progress
 
     def start(self, trial: Trial) -> LlmMctsSteps:
         return LlmMctsSteps(self, trial)
@@ -362,12 +388,4 @@ def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> LlmMctsP
     N_batch replies per prior, tree reuse as the other tree planners have it."""
     backend = llm_backend(settings)
     proposer = LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
-    search = settings.search
-    mcts = LlmMctsSettings(
-        search=search.search_settings(search.budget_for("llm-mcts")),
-        samples=search.batch,
-        occlusion_predicates=settings.prompt.occlusion_predicates,
-        reuse_tree=settings.execution.reuse_tree,
-        rewards=settings.rewards,
-    )
-    return LlmMctsPlanner(proposer, mcts, progress=progress, sampling=Sampling.of(settings))
+    return LlmMctsPlanner(proposer, settings, progress)

@@ -47,10 +47,11 @@ state), or a termination ('timeout', 'no_progress') that ends the trial."""
 @dataclass(frozen=True)
 class Sampling:
     """How a trial's domain draws κ (ψ's tries) and its predicate engine samples motions:
-    the settings tree's ``samplers`` and ``predicates`` sections, for every online planner."""
+    the settings tree's ``samplers`` and ``predicates`` sections, for every online planner
+    (a view of the tree, which holds their defaults: :meth:`of`)."""
 
-    samplers: SamplerSettings = field(default_factory=SamplerSettings)
-    predicates: PredicateSettings = field(default_factory=PredicateSettings)
+    samplers: SamplerSettings
+    predicates: PredicateSettings
 
     @classmethod
     def of(cls, settings: RunSettings) -> Sampling:
@@ -149,7 +150,8 @@ class Decider(Protocol):
 class OnlinePlanner(ABC):
     """A planner that acts online: subclasses name the method and make its :class:`Decider`.
 
-    A subclass is a dataclass with a ``progress`` and a ``sampling`` field; it may override
+    A subclass has a ``progress`` and a ``sampling`` attribute (the latter
+    :meth:`Sampling.of` the run's settings tree); it may override
     :attr:`rewards` (R's constants), :attr:`occlusion` (whether the trial's predicates include
     the occlusion literals, which cost motion planning) and :attr:`reuse_tree`.
     """

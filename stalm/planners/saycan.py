@@ -148,11 +148,16 @@ class DecisionTally:
 
 @dataclass(frozen=True)
 class SayCanSettings:
-    """The paper's EP-SayCan: 5 replies per decision, up to 3 κ draws per chosen action, the
-    replies' votes mixed 0.5 with uniform (the authors' prior)."""
+    """What EP-SayCan reads of a run's settings tree -- N_batch replies per decision (the
+    paper's 5), up to ``kappa_tries`` κ draws per chosen action (the authors' 3) -- built by
+    :meth:`of`, and the method's own constants, which the tree does not hold: the replies'
+    votes mixed 0.5 with uniform (the authors' prior), the queries per state, the
+    temperature."""
 
-    n_batch: int = 5
-    kappa_tries: int = 3
+    n_batch: int
+    """Replies per decision (``search.batch``)."""
+    kappa_tries: int
+    """κ draws per chosen action (``execution.kappa_tries``)."""
     uniform_weight: float = 0.5
     """Weight of the uniform distribution in the LLM score; 0 scores by the votes alone."""
     max_queries_per_step: int = 3
@@ -160,17 +165,33 @@ class SayCanSettings:
     trial ends as 'no_progress' (only reachable with ``uniform_weight = 0``)."""
     temperature: float = 1.0
 
+    @classmethod
+    def of(cls, settings: RunSettings) -> SayCanSettings:
+        return cls(n_batch=settings.search.batch, kappa_tries=settings.execution.kappa_tries)
 
-@dataclass
+
 class EpSayCanPlanner(OnlinePlanner):
-    """SayCan with the empirical LLM policy and precondition-and-occlusion affordance."""
+    """SayCan with the empirical LLM policy and precondition-and-occlusion affordance.
+
+    ``settings`` is the run's settings tree (None: :class:`RunSettings`' defaults, which
+    ``stalm solve --planner ep-saycan`` runs); ``settings`` on the planner is what it reads
+    of it (:class:`SayCanSettings`), and whether replies are constrained is the tree's
+    ``llm.constrained`` (None: for the embedded model only)."""
 
     name = "ep-saycan"
-    backend: LLMBackend
-    constrained: bool = False
-    settings: SayCanSettings = field(default_factory=SayCanSettings)
-    progress: Progress | None = None
-    sampling: Sampling = field(default_factory=Sampling)
+
+    def __init__(
+        self,
+        backend: LLMBackend,
+        settings: RunSettings | None = None,
+        progress: Progress | None = None,
+    ) -> None:
+        run_settings = settings or RunSettings()
+        self.backend = backend
+        self.constrained: bool = use_constraint(run_settings, backend)
+        self.settings = SayCanSettings.of(run_settings)
+        self.sampling = Sampling.of(run_settings)
+        self.progress = progress
 
     def start(self, trial: Trial) -> SayCanSteps:
         return SayCanSteps(self, trial)
@@ -309,13 +330,4 @@ def _decision(
 
 def build_ep_saycan(settings: RunSettings, progress: Progress | None) -> EpSayCanPlanner:
     """The registry's builder: the configured (cached) backend, N_batch and κ tries."""
-    backend = llm_backend(settings)
-    return EpSayCanPlanner(
-        backend,
-        constrained=use_constraint(settings, backend),
-        settings=SayCanSettings(
-            n_batch=settings.search.batch, kappa_tries=settings.execution.kappa_tries
-        ),
-        progress=progress,
-        sampling=Sampling.of(settings),
-    )
+    return EpSayCanPlanner(llm_backend(settings), settings, progress)

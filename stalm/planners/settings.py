@@ -1,9 +1,7 @@
 """Every setting of a run as one frozen tree: what ``--show-settings`` prints and records keep.
 
-Before this tree, about ten settings dataclasses lived in their layers and only a few of their
-fields could be reached from the command line. :class:`RunSettings` composes them -- the
-layers' own dataclasses where they exist (:class:`~stalm.domain.mdp.RewardSettings`,
-:class:`~stalm.domain.samplers.SamplerSettings`,
+:class:`RunSettings` composes the layers' settings -- their own dataclasses where they exist
+(:class:`~stalm.domain.mdp.RewardSettings`, :class:`~stalm.domain.samplers.SamplerSettings`,
 :class:`~stalm.predicates.samples.PredicateSettings`, :class:`~stalm.llm.prompt.PromptOptions`),
 and a small section here where a planner-level choice has no dataclass of its own -- so that a
 run is one value: built from the defaults, a file and ``--set`` overrides
@@ -11,10 +9,13 @@ run is one value: built from the defaults, a file and ``--set`` overrides
 :mod:`stalm.planners.registry`, and written whole into every result record, from which
 ``stalm rerun`` runs the trial again.
 
-The defaults are the planners' defaults before the tree existed, so a run without overrides
-behaves exactly as before. A ``None`` means "decided per planner or per problem";
-:meth:`RunSettings.resolved` replaces every such ``None`` by the value the run uses, and that
-resolved tree is what a record keeps.
+Every default of a run is written here or in a layer dataclass the tree composes, and nowhere
+else: a method's own settings (:class:`~stalm.planners.tree_step.StalmSettings` and its kind)
+are views without defaults built from a tree, and a planner built without one builds them
+from ``RunSettings()``, so the Python API runs what ``stalm solve`` runs. The values are
+checked here too, once, by the sections. A ``None`` means "decided per planner or per
+problem"; :meth:`RunSettings.resolved` replaces every such ``None`` by the value the run uses,
+and that resolved tree is what a record keeps.
 """
 
 from __future__ import annotations
@@ -111,6 +112,11 @@ class BudgetSection:
         )
 
 
+_PAPER_SEARCH = SearchSettings()
+"""The search layer's defaults (the paper's constants), which :class:`SearchSection` takes as
+its own so that they are written in one place."""
+
+
 @dataclass(frozen=True)
 class SearchSection:
     """The tree search and the proposer's batch (Appendix B; §4.2 for the baselines).
@@ -124,11 +130,11 @@ class SearchSection:
     """N_budget, simulations per real step; None: the planner's (:data:`DEFAULT_SIMS`)."""
     batch: int = 5
     """N_batch: task plans (replies) per query."""
-    c: float = 50.0
-    k: float = 1.5
-    alpha: float = 0.15
-    gamma: float = 0.99
-    horizon: int = 20
+    c: float = _PAPER_SEARCH.c
+    k: float = _PAPER_SEARCH.k
+    alpha: float = _PAPER_SEARCH.alpha
+    gamma: float = _PAPER_SEARCH.gamma
+    horizon: int = _PAPER_SEARCH.horizon
 
     def __post_init__(self) -> None:
         _check(

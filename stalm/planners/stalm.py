@@ -8,17 +8,19 @@ root action and plan again from the resulting state (:class:`~stalm.planners.tre
 SearchStep`, shared with UCT). The trial itself -- one deadline, the executed plan, its replay
 in a fresh scene -- is :class:`~stalm.planners.online.OnlinePlanner`'s.
 
-Beyond the paper, each a setting of :class:`StalmSettings` with the paper's way one switch
-away: tree reuse and the execution rule (:mod:`stalm.planners.tree_step`), and **geometric
-feedback**: the steps Concretize found infeasible go back to the proposer
-(:mod:`stalm.planners.feedback`), which is asked again in the same step while it comes up
-with task plans not yet tried there (at most ``feedback_rounds`` proposals per step).
+Beyond the paper, each a setting of the run's settings tree
+(:class:`~stalm.planners.settings.RunSettings`, read through :class:`StalmSettings`) with the
+paper's way one switch away: tree reuse and the execution rule
+(:mod:`stalm.planners.tree_step`), and **geometric feedback**: the steps Concretize found
+infeasible go back to the proposer (:mod:`stalm.planners.feedback`), which is asked again in
+the same step while it comes up with task plans not yet tried there (at most
+``feedback_rounds`` proposals per step).
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import replace
 from typing import Any, ClassVar, cast
 
 from stalm.domain.actions import DiscreteAction
@@ -35,15 +37,10 @@ from stalm.planners.proposers import (
     TaskPlanProposer,
     takes_feedback,
 )
-from stalm.planners.settings import RunSettings
+from stalm.planners.settings import ProposerKind, RunSettings
 from stalm.planners.step_log import proposal_record
 from stalm.planners.symbolic import SymbolicProposer
-from stalm.planners.tree_step import (
-    SearchStep,
-    StalmSettings,
-    TreePlanner,
-    tree_settings,
-)
+from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
 from stalm.search import (
     ConcretePlan,
     ConcretizeResult,
@@ -190,17 +187,32 @@ class StalmStep(SearchStep):
         )
 
 
-@dataclass
 class StalmPlanner(TreePlanner):
-    """STaLM with any task-plan proposer (a language model by default)."""
+    """STaLM with any task-plan proposer, configured by a run's settings tree.
+
+    ``settings`` is that tree (None: :class:`RunSettings`' defaults, which ``stalm solve``
+    runs without overrides). The proposer given is the one that runs, so the tree's
+    ``proposer.kind`` is taken to be its kind (:func:`proposer_kind`): that kind decides the
+    defaults that depend on the proposer (feedback and backtracks), so
+    ``StalmPlanner(SymbolicProposer())`` runs what ``stalm solve --proposer symbolic`` runs.
+    ``settings`` on the planner is what its steps read of the tree (:class:`StalmSettings`).
+    """
 
     name = "stalm"
-    proposer: TaskPlanProposer
-    settings: StalmSettings = field(default_factory=StalmSettings)
-    progress: Progress | None = None
-    sampling: Sampling = field(default_factory=Sampling)
     step_type: ClassVar[type[StalmStep]] = StalmStep
     """The real step this planner runs (STaLM w/o UCT: another decision without a goal plan)."""
+
+    def __init__(
+        self,
+        proposer: TaskPlanProposer,
+        settings: RunSettings | None = None,
+        progress: Progress | None = None,
+    ) -> None:
+        run_settings = with_proposer_kind(settings or RunSettings(), proposer)
+        self.proposer = proposer
+        self.settings = StalmSettings.of(run_settings, self.name, proposes=True)
+        self.sampling = Sampling.of(run_settings)
+        self.progress = progress
 
     def start(self, trial: Trial) -> StalmStep:
         proposer = self.proposer
@@ -211,6 +223,24 @@ class StalmPlanner(TreePlanner):
             )
         policies = SearchPolicies.from_settings(self.settings.search)
         return self.step_type(trial, self.settings, policies, proposer)
+
+
+def proposer_kind(proposer: TaskPlanProposer) -> ProposerKind:
+    """The settings tree's name for ``proposer``: 'symbolic' for Fast Downward, 'noisy' for
+    the noisy proposer, 'llm' for any other (a language model or a proposer of one's own)."""
+    if isinstance(proposer, SymbolicProposer):
+        return "symbolic"
+    if isinstance(proposer, NoisyProposer):
+        return "noisy"
+    return "llm"
+
+
+def with_proposer_kind(settings: RunSettings, proposer: TaskPlanProposer) -> RunSettings:
+    """``settings`` with ``proposer``'s kind as ``proposer.kind`` (itself if it is already)."""
+    kind = proposer_kind(proposer)
+    if settings.proposer.kind == kind:
+        return settings
+    return replace(settings, proposer=replace(settings.proposer, kind=kind))
 
 
 def proposer_for(settings: RunSettings) -> TaskPlanProposer:
@@ -232,9 +262,4 @@ def _plain_proposer(settings: RunSettings, kind: str) -> TaskPlanProposer:
 
 def build_stalm(settings: RunSettings, progress: Progress | None) -> StalmPlanner:
     """The registry's builder."""
-    return StalmPlanner(
-        proposer_for(settings),
-        tree_settings(settings, "stalm", proposes=True),
-        progress,
-        Sampling.of(settings),
-    )
+    return StalmPlanner(proposer_for(settings), settings, progress)

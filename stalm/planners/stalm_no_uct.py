@@ -9,14 +9,10 @@ its settings.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from stalm.domain.params import Action
 from stalm.planners.config import Progress
-from stalm.planners.online import Sampling
 from stalm.planners.settings import RunSettings
 from stalm.planners.stalm import StalmPlanner, StalmStep, proposer_for
-from stalm.planners.tree_step import tree_settings
 from stalm.search import ConcretePlan
 
 
@@ -28,7 +24,6 @@ class NoUctStep(StalmStep):
         return first_action_of_best_prefix(plans)
 
 
-@dataclass
 class StalmNoUctPlanner(StalmPlanner):
     """STaLM without the tree search (Table 3's 'STaLM w/o UCT')."""
 
@@ -48,9 +43,4 @@ def first_action_of_best_prefix(plans: list[ConcretePlan]) -> tuple[Action, ...]
 
 def build_stalm_no_uct(settings: RunSettings, progress: Progress | None) -> StalmNoUctPlanner:
     """The registry's builder."""
-    return StalmNoUctPlanner(
-        proposer_for(settings),
-        tree_settings(settings, "stalm-no-uct", proposes=True),
-        progress,
-        Sampling.of(settings),
-    )
+    return StalmNoUctPlanner(proposer_for(settings), settings, progress)

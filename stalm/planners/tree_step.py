@@ -5,7 +5,8 @@ These four run the same step (Algorithm 1's loop body): get task plans and Concr
 and otherwise run (warm-started) UCT from the current state and execute what the execution
 rule chooses (:meth:`SearchStep.search`; STaLM w/o UCT takes the best plan's first action
 instead). :class:`SearchStep` is that step and its record (:mod:`stalm.planners.step_log`);
-:class:`StalmSettings` its settings, with the paper's values and what this implementation adds:
+:class:`StalmSettings` what it reads of the run's settings tree, which holds the paper's values
+and what this implementation adds:
 
 * **tree reuse** (the authors' loop): the executed child's subtree is the next step's tree
   (:meth:`stalm.planners.online.Trial.execute`), so statistics accumulate over the episode;
@@ -19,102 +20,94 @@ instead). :class:`SearchStep` is that step and its record (:mod:`stalm.planners.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
-from typing import Any, Literal, cast
+from dataclasses import dataclass
+from typing import Any, cast
 
 from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
-from stalm.errors import StalmError
 from stalm.planners.online import ConfiguredPlanner, Decision, Trial
-from stalm.planners.settings import RunSettings
+from stalm.planners.settings import ExecutionRule, RunSettings
 from stalm.planners.step_log import tree_record, warm_edges
 from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
 from stalm.world.state import State
 
-ExecutionRule = Literal["best_q", "progress"]
-EXECUTION_RULES: tuple[str, ...] = ("best_q", "progress")
-
 
 @dataclass(frozen=True)
 class StalmSettings:
-    """Appendix B: N_batch = 5, N_budget = 30, c = 50, PW (1.5, 0.15), γ = 0.99; and what
-    this implementation adds beyond the paper (each can be switched back to the paper's way).
+    """What the tree planners read of a run's settings tree, typed and resolved for one
+    planner: Appendix B's N_batch, N_budget, c, PW and γ, and what this implementation adds
+    beyond the paper (each can be switched back to the paper's way in the tree).
+
+    A view with no defaults of its own: :meth:`of` builds it from a
+    :class:`~stalm.planners.settings.RunSettings`, whose sections hold every default and
+    check every value, so a planner built by hand runs what ``stalm solve`` runs.
     """
 
-    n_batch: int = 5
-    search: SearchSettings = field(default_factory=SearchSettings)
-    reuse_tree: bool = True
+    n_batch: int
+    """N_batch: task plans per query (``search.batch``)."""
+    search: SearchSettings
+    """The search's constants with this planner's N_budget (``search``)."""
+    reuse_tree: bool
     """Keep the executed child's subtree as the next step's tree (the authors' experiment
     loop); False starts every real step from a fresh tree."""
-    feedback: bool = False
+    feedback: bool
     """Geometric feedback (:mod:`stalm.planners.feedback`): Concretize's failed steps go back
     to the proposer, which is asked again while it offers task plans not yet tried in the
-    step (at most ``feedback_rounds`` times). Off for the paper's rows."""
-    feedback_rounds: int = 8
+    step (at most ``feedback_rounds`` times)."""
+    feedback_rounds: int
     """At most this many proposals per real step with feedback (the first one included)."""
-    search_rounds: int = 10
+    search_rounds: int
     """'progress' rule: at most this many searches from one root before the best-Q fallback
     (a count, so that decisions do not depend on the machine's speed)."""
-    step_share: float = 1.0
+    step_share: float
     """A real step may spend at most this fraction of the trial's remaining time asking the
     proposer again (feedback) or searching on with no progress ('progress' rule); 1.0: no
     guard but the trial's deadline."""
-    execution: ExecutionRule = "best_q"
+    execution: ExecutionRule
     """What to execute when no goal plan was found: 'best_q' the highest-Q root action (the
     authors' rule); 'progress' the highest-Q root action from which the tree reaches more
     goal conjuncts than the root has, searching on (at most ``search_rounds`` searches) while
     none does."""
-    kappa_tries: int = 1
+    kappa_tries: int
     """κ draws per task-plan step in Concretize (Algorithm 2: 1; the authors' code: 3)."""
-    backtracks: int = 0
+    backtracks: int
     """Concretize draws a placement again when an object the plan put down is in the way of a
     later step, at most this many times per plan (0: Algorithm 2)."""
-    rewards: RewardSettings = field(default_factory=RewardSettings)
+    rewards: RewardSettings
     """R's constants (§4.1, with the potential-based −3 of the research notes)."""
-    occlusion_predicates: bool = True
+    occlusion_predicates: bool
     """Compute PickOccludedBy/PlaceOccludedBy: for the prompt (False for Table 4's arms whose
     prompt does not show them, so those arms do not pay for motion planning they never use)
     or for Hcount (always on for UCT-with-Hcount)."""
 
-    def __post_init__(self) -> None:
-        if self.execution not in EXECUTION_RULES:
-            raise StalmError(
-                f"unknown execution rule '{self.execution}' "
-                f"(available: {', '.join(EXECUTION_RULES)})"
-            )
-        if self.kappa_tries < 1:
-            raise StalmError(f"kappa_tries must be at least 1, got {self.kappa_tries}")
-        if self.feedback_rounds < 1:
-            raise StalmError(f"feedback_rounds must be at least 1, got {self.feedback_rounds}")
-        if self.search_rounds < 1:
-            raise StalmError(f"search_rounds must be at least 1, got {self.search_rounds}")
-        if not 0.0 < self.step_share <= 1.0:
-            raise StalmError(f"step_share must be in (0, 1], got {self.step_share}")
-
-
-def tree_settings(settings: RunSettings, planner: str, *, proposes: bool) -> StalmSettings:
-    """The :class:`StalmSettings` of tree planner ``planner`` in a run's settings tree (a
-    planner that ``proposes`` no task plans -- UCT -- gets no feedback)."""
-    feedback = settings.feedback()
-    execution = settings.execution
-    return StalmSettings(
-        n_batch=settings.search.batch,
-        search=settings.search.search_settings(settings.search.budget_for(planner)),
-        reuse_tree=execution.reuse_tree,
-        feedback=feedback and proposes,
-        feedback_rounds=execution.feedback_rounds,
-        search_rounds=execution.search_rounds,
-        step_share=execution.step_share,
-        execution=execution.rule,
-        kappa_tries=execution.kappa_tries,
-        backtracks=execution.backtracks_for(feedback),
-        rewards=settings.rewards,
-        # the symbolic proposer plans with occlusions whatever the prompt options say, and
-        # the noisy one needs them to drop the step that clears an occluder
-        occlusion_predicates=(
-            settings.proposer.kind != "llm" or settings.prompt.occlusion_predicates
-        ),
-    )
+    @classmethod
+    def of(cls, settings: RunSettings, planner: str, *, proposes: bool) -> StalmSettings:
+        """The settings tree planner ``planner`` reads from ``settings`` (a planner that
+        ``proposes`` no task plans -- UCT -- gets no feedback; UCT-with-Hcount always
+        computes the occlusion predicates its heuristic reads)."""
+        feedback = settings.feedback()
+        execution = settings.execution
+        return cls(
+            n_batch=settings.search.batch,
+            search=settings.search.search_settings(settings.search.budget_for(planner)),
+            reuse_tree=execution.reuse_tree,
+            feedback=feedback and proposes,
+            feedback_rounds=execution.feedback_rounds,
+            search_rounds=execution.search_rounds,
+            step_share=execution.step_share,
+            execution=execution.rule,
+            kappa_tries=execution.kappa_tries,
+            backtracks=execution.backtracks_for(feedback),
+            rewards=settings.rewards,
+            # the symbolic proposer plans with occlusions whatever the prompt options say,
+            # the noisy one needs them to drop the step that clears an occluder, and Hcount
+            # reads them at every leaf
+            occlusion_predicates=(
+                planner == "uct-hcount"
+                or settings.proposer.kind != "llm"
+                or settings.prompt.occlusion_predicates
+            ),
+        )
 
 
 class TreePlanner(ConfiguredPlanner):

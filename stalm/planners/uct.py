@@ -9,28 +9,30 @@ predicates.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 from stalm.planners.config import Progress
 from stalm.planners.online import Sampling, Trial
 from stalm.planners.settings import DEFAULT_SIMS, RunSettings
-from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner, tree_settings
+from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
 from stalm.search import SearchPolicies
 
 UCT_BUDGET = DEFAULT_SIMS["uct"]
 """N_budget of the UCT baselines in the paper's §4.2."""
 
 
-@dataclass
 class UctPlanner(TreePlanner):
-    """Plain hybrid UCT run online (the 'uct' row)."""
+    """Plain hybrid UCT run online (the 'uct' row), configured by a run's settings tree
+    (None: :class:`RunSettings`' defaults, which ``stalm solve --planner uct`` runs); of it,
+    the proposer's part (N_batch, feedback, κ tries, backtracks) does not apply."""
 
     name = "uct"
-    settings: StalmSettings = field(default_factory=StalmSettings)
-    """STaLM's settings; the proposer's (N_batch, feedback, κ tries, backtracks) do not
-    apply."""
-    progress: Progress | None = None
-    sampling: Sampling = field(default_factory=Sampling)
+
+    def __init__(
+        self, settings: RunSettings | None = None, progress: Progress | None = None
+    ) -> None:
+        run_settings = settings or RunSettings()
+        self.settings = StalmSettings.of(run_settings, self.name, proposes=False)
+        self.sampling = Sampling.of(run_settings)
+        self.progress = progress
 
     def policies(self, trial: Trial) -> SearchPolicies:
         """The search's policies: UCT's, with random rollouts at new leaves."""
@@ -42,6 +44,4 @@ class UctPlanner(TreePlanner):
 
 def build_uct(settings: RunSettings, progress: Progress | None) -> UctPlanner:
     """The registry's builder."""
-    return UctPlanner(
-        tree_settings(settings, "uct", proposes=False), progress, Sampling.of(settings)
-    )
+    return UctPlanner(settings, progress)

@@ -8,28 +8,23 @@ brought forward from its parent).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 from stalm.planners.config import Progress
 from stalm.planners.hcount import HcountLeafValue
-from stalm.planners.online import Sampling, Trial
+from stalm.planners.online import Trial
 from stalm.planners.settings import RunSettings
-from stalm.planners.tree_step import SearchStep, StalmSettings, tree_settings
+from stalm.planners.tree_step import SearchStep, StalmSettings
 from stalm.planners.uct import UctPlanner
 from stalm.search import SearchPolicies
 
 
-@dataclass
 class UctHcountPlanner(UctPlanner):
-    """UCT with Appendix C's Hcount as the leaf value (the 'uct-hcount' row)."""
+    """UCT with Appendix C's Hcount as the leaf value (the 'uct-hcount' row); its settings
+    always compute the occlusion predicates Hcount reads (:meth:`StalmSettings.of`)."""
 
     name = "uct-hcount"
-
-    def __post_init__(self) -> None:
-        # Hcount reads PickOccludedBy/PlaceOccludedBy whatever a prompt would show
-        if not self.settings.occlusion_predicates:
-            self.settings = replace(self.settings, occlusion_predicates=True)
 
     def policies(self, trial: Trial) -> SearchPolicies:
         plain = super().policies(trial)
@@ -59,6 +54,4 @@ class HcountStep(SearchStep):
 
 def build_uct_hcount(settings: RunSettings, progress: Progress | None) -> UctHcountPlanner:
     """The registry's builder."""
-    return UctHcountPlanner(
-        tree_settings(settings, "uct-hcount", proposes=False), progress, Sampling.of(settings)
-    )
+    return UctHcountPlanner(settings, progress)

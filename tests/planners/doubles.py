@@ -3,13 +3,30 @@
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from typing import Any
 
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.mdp import Domain
 from stalm.planners.proposers import Proposal
+from stalm.planners.settings import RunSettings
+from stalm.planners.settings_io import with_values
 from stalm.predicates.literals import GroundLiteral
 from stalm.world.problem import Problem
 from stalm.world.state import State
+
+
+def plain_settings(sims: int, *overrides: tuple[str, Any]) -> RunSettings:
+    """A settings tree with N_budget ``sims`` and the plain step the tree planners' tests were
+    written for -- the authors' best-Q rule, Algorithm 2's one κ draw, no backtracks, no
+    geometric feedback whatever the proposer -- then ``overrides`` (dotted key, value)."""
+    plain = [
+        ("search.sims", sims),
+        ("execution.rule", "best_q"),
+        ("execution.kappa_tries", 1),
+        ("execution.feedback", False),
+        ("execution.backtracks", 0),
+    ]
+    return with_values(RunSettings(), [*plain, *overrides], "test settings")
 
 
 class ScriptedSuffixProposer:

@@ -15,14 +15,13 @@ from stalm.planners.hcount import (
     occluder_set,
     target_term,
 )
-from stalm.planners.stalm import StalmSettings
 from stalm.planners.uct_hcount import UctHcountPlanner
 from stalm.predicates.engine import PredicateEngine, PredicateSettings
 from stalm.predicates.literals import GroundLiteral as L
-from stalm.search import SearchSettings
 from stalm.search.tree import Edge
 from stalm.world.problem import Problem
 from stalm.world.state import Grasp, ObjectPose
+from tests.planners.doubles import plain_settings
 
 
 def test_hcount_on_hand_made_literals(problems) -> None:
@@ -86,7 +85,7 @@ def test_uct_hcount_runs(problems) -> None:
     # seconds on a loaded machine
     p2 = problems["P2"]
     two_steps = Problem(p2.spec.model_copy(update={"horizon": 2}), p2.source)
-    planner = UctHcountPlanner(StalmSettings(search=SearchSettings(budget=2)))
+    planner = UctHcountPlanner(plain_settings(2))
     result = planner.solve(two_steps, seed=0, time_budget_s=300.0)
     assert planner.name == "uct-hcount" and result.counters.simulations >= 1
     assert result.termination == "horizon" and len(result.plan) == 2

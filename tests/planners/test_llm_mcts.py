@@ -27,8 +27,9 @@ from stalm.planners.llm_mcts import (
     state_request_seed,
 )
 from stalm.planners.proposers import LLMProposer, Proposal
-from stalm.planners.registry import PlannerConfig, build_planner
+from stalm.planners.registry import PlannerConfig, RunSettings, build_planner
 from stalm.planners.replay import replay_result_json
+from stalm.planners.settings_io import with_overrides
 from stalm.search import SearchSettings, SearchTree, warm_started_uct
 from stalm.world.problem import load_problem
 from stalm.world.state import ObjectPose
@@ -246,7 +247,7 @@ def test_llm_mcts_reuses_the_tree_by_the_one_setting_of_every_tree_planner() -> 
     """Tree reuse (issue 13) is on for LLM-MCTS as for STaLM and UCT, and the same setting
     (execution.reuse_tree, --set reuse_tree=false) switches it off for all of them."""
     model = PlannerConfig(llm="http://127.0.0.1:9/v1#m")
-    assert LlmMctsSettings().reuse_tree
+    assert LlmMctsSettings.of(RunSettings()).reuse_tree
     for name in ("llm-mcts", "stalm", "uct", "uct-hcount"):
         assert build_planner(name, model).reuse_tree, name
         off = replace(model, reuse_tree=False)
@@ -276,9 +277,8 @@ def test_the_reused_subtree_keeps_the_n_and_q_it_had_before_the_step(problems, m
     short = Problem(p2.spec.model_copy(update={"horizon": 2}), p2.source)
     reply = plan_reply([Open("kitchen_door"), Pick("bottle2"), Place("bottle2", "on", "counter1")])
     backend = ScriptedReplyBackendDouble(queue=[[reply]])
-    settings = LlmMctsSettings(
-        search=SearchSettings(budget=3, horizon=2), samples=2, occlusion_predicates=False
-    )
+    small = ["search.sims=3", "search.horizon=2", "search.batch=2"]
+    settings = with_overrides(RunSettings(), [*small, "prompt.occlusion_predicates=false"])
     planner = LlmMctsPlanner(
         LLMProposer(backend, PromptOptions(occlusion_predicates=False)), settings
     )
@@ -343,7 +343,7 @@ def test_llm_mcts_solves_the_smallest_case_when_the_replies_start_with_the_right
     backend = PlanFollowingBackendDouble(plan)
     # the prompt without occlusion predicates: only symbolic literals are computed per node,
     # which is all the plan-following double reads
-    settings = LlmMctsSettings(occlusion_predicates=False)
+    settings = with_overrides(RunSettings(), ["prompt.occlusion_predicates=false"])
     result = LlmMctsPlanner(LLMProposer(backend), settings).solve(problem, seed, 60.0)
     data = json.loads(json.dumps(result.to_json()))
     assert data["success"] is True and data["termination"] == "goal", data["termination"]

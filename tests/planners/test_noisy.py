@@ -29,7 +29,7 @@ from stalm.planners.settings import RunSettings
 from stalm.planners.settings_io import with_overrides
 from stalm.planners.stalm import StalmPlanner
 from stalm.planners.symbolic import SymbolicProposer
-from stalm.planners.tree_step import tree_settings
+from stalm.planners.tree_step import StalmSettings
 from stalm.predicates.literals import GroundLiteral
 from stalm.search import TaskPlan
 from stalm.search.concretize import ConcretePlan
@@ -300,7 +300,7 @@ def test_the_settings_build_the_noisy_proposer_without_a_model() -> None:
     resolved = resolve("stalm", settings)
     assert (resolved.execution.feedback, resolved.execution.backtracks) == (False, 0)
     assert planner.settings.feedback is False
-    assert tree_settings(settings, "stalm", proposes=True).occlusion_predicates
+    assert StalmSettings.of(settings, "stalm", proposes=True).occlusion_predicates
     on = with_overrides(settings, ["execution.feedback=true"])
     assert build_planner("stalm", on).settings.feedback is True
     llm = with_overrides(
@@ -313,15 +313,13 @@ def test_the_settings_build_the_noisy_proposer_without_a_model() -> None:
 def test_a_stalm_trial_records_what_was_injected(problems) -> None:
     """A short STaLM trial on P2 (horizon 1, two simulations): every plan the noisy proposer
     offered is in ``details['noise']`` with its injected and its classified kind."""
-    from stalm.planners.stalm import StalmSettings
-    from stalm.search import SearchSettings
-    from tests.planners.doubles import ScriptedSuffixProposer
+    from tests.planners.doubles import ScriptedSuffixProposer, plain_settings
 
     problem = Problem(problems["P2"].spec.model_copy(update={"horizon": 1}), problems["P2"].source)
     inner = ScriptedSuffixProposer(problem, P2_PLAN)
     try:
         noisy = NoisyProposer(inner, rate=1.0, weights=(1.0, 0.0, 0.0))
-        settings = StalmSettings(search=SearchSettings(budget=2))
+        settings = plain_settings(2)
         result = StalmPlanner(noisy, settings).solve(problem, seed=5, time_budget_s=600.0)
     finally:
         inner.close()

@@ -178,9 +178,9 @@ def test_a_trial_ends_at_its_deadline_while_predicates_are_computed(
 def test_llm_mcts_keeps_the_executed_childs_subtree_and_priors_when_asked_to(problems) -> None:
     from stalm.domain.actions import Place
     from stalm.llm.prompt import PromptOptions
-    from stalm.planners.llm_mcts import LlmMctsSettings
     from stalm.planners.proposers import LLMProposer
-    from stalm.search import SearchSettings
+    from stalm.planners.settings import RunSettings
+    from stalm.planners.settings_io import with_values
     from stalm.world.problem import Problem
     from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply
 
@@ -191,11 +191,16 @@ def test_llm_mcts_keeps_the_executed_childs_subtree_and_priors_when_asked_to(pro
     def run(reuse: bool) -> dict[str, object]:
         backend = ScriptedReplyBackendDouble(queue=[[reply]])
         no_occlusion = PromptOptions(occlusion_predicates=False)
-        settings = LlmMctsSettings(
-            search=SearchSettings(budget=3, horizon=2),
-            samples=2,
-            occlusion_predicates=False,
-            reuse_tree=reuse,
+        settings = with_values(
+            RunSettings(),
+            [
+                ("search.sims", 3),
+                ("search.horizon", 2),
+                ("search.batch", 2),
+                ("prompt.occlusion_predicates", False),
+                ("execution.reuse_tree", reuse),
+            ],
+            "test settings",
         )
         planner = LlmMctsPlanner(LLMProposer(backend, no_occlusion), settings)
         result = planner.solve(short, 0, 600.0)

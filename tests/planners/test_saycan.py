@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -20,7 +21,6 @@ from stalm.planners.saycan import (
     DecisionTally,
     EpSayCanPlanner,
     SayCanScore,
-    SayCanSettings,
     affordance,
     occlusion_free,
     saycan_choice,
@@ -163,7 +163,9 @@ def test_votes_only_asks_again_then_ends_as_no_progress(problems) -> None:
     backend = ScriptedReplyBackendDouble(
         queue=[[plan_reply([Pick("salter"), Open("kitchen_door")])]]
     )
-    planner = EpSayCanPlanner(backend, settings=SayCanSettings(uniform_weight=0.0))
+    planner = EpSayCanPlanner(backend)
+    # votes only: a constant of the method's own, which the settings tree does not hold
+    planner.settings = replace(planner.settings, uniform_weight=0.0)
     result = planner.solve(problems["P2"], seed=0, time_budget_s=120.0)
     assert result.termination == "no_progress" and not result.success and result.plan == ()
     assert result.counters.llm_calls == 3 and len(backend.requests) == 3

@@ -23,7 +23,6 @@ from stalm.planners.settings_io import (
     with_overrides,
 )
 from stalm.planners.stalm import StalmSettings
-from stalm.planners.tree_step import tree_settings
 from stalm.search import SearchSettings
 
 MODEL = "http://127.0.0.1:9/v1#m"
@@ -60,14 +59,17 @@ def test_the_default_tree_builds_the_tree_planners_as_before() -> None:
             search=SearchSettings(budget=budget),
             reuse_tree=True,
             feedback=False,
+            feedback_rounds=8,
+            search_rounds=10,
+            step_share=1.0,
             execution="progress",
             kappa_tries=3,
             backtracks=0,
             rewards=RewardSettings(goal_atom_lost=3.0),
             occlusion_predicates=True,
         )
-        assert tree_settings(settings, planner, proposes=planner == "stalm") == before
-    symbolic = tree_settings(
+        assert StalmSettings.of(settings, planner, proposes=planner == "stalm") == before
+    symbolic = StalmSettings.of(
         PlannerConfig(proposer="symbolic").to_settings(), "stalm", proposes=True
     )
     assert (symbolic.feedback, symbolic.backtracks) == (True, 6)

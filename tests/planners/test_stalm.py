@@ -11,11 +11,11 @@ from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.mdp import Domain
 from stalm.planners.proposers import Proposal
 from stalm.planners.replay import replay_plan, replay_result_json
-from stalm.planners.stalm import StalmPlanner, StalmSettings
+from stalm.planners.stalm import StalmPlanner
 from stalm.planners.uct import UctPlanner
 from stalm.search import SearchSettings, SearchTree, TaskPlan, concretize, warm_started_uct
 from stalm.world.problem import Problem
-from tests.planners.doubles import ScriptedSuffixProposer
+from tests.planners.doubles import ScriptedSuffixProposer, plain_settings
 
 P2_PLAN = (
     Open("kitchen_door"),
@@ -46,7 +46,7 @@ def _with_horizon(problem: Problem, horizon: int) -> Problem:
 def _solve(problem, plan, seed: int, budget: float = 240.0):
     proposer = ScriptedSuffixProposer(problem, plan)
     try:
-        planner = StalmPlanner(proposer, StalmSettings(search=SearchSettings(budget=30)))
+        planner = StalmPlanner(proposer, plain_settings(30))
         return planner.solve(problem, seed, budget)
     finally:
         proposer.close()
@@ -127,7 +127,7 @@ def test_same_seed_and_proposer_give_the_identical_plan(problems) -> None:
 
 
 def test_plain_uct_runs_the_same_loop_without_a_model(problems) -> None:
-    planner = UctPlanner(StalmSettings(search=SearchSettings(budget=5)))
+    planner = UctPlanner(plain_settings(5))
     result = planner.solve(problems["P2"], seed=0, time_budget_s=8.0)
     assert planner.name == "uct" and result.planner == "uct"
     assert result.counters.llm_calls == 0 and result.counters.simulations > 0
@@ -141,12 +141,12 @@ def test_the_executed_childs_subtree_is_kept_between_steps_and_can_be_switched_o
 ) -> None:
     """Tree reuse: every real step after the first starts from a root that already has the
     visits the last step's search gave it; with reuse off, each step starts from nothing."""
-    kept = UctPlanner(StalmSettings(search=SearchSettings(budget=6)))
+    kept = UctPlanner(plain_settings(6))
     result = kept.solve(problems["P2"], seed=1, time_budget_s=20.0)
     reused = result.details["reused_root_visits"]
     assert len(result.plan) >= 2 and reused
     assert all(visits > 0 for visits in reused)
-    fresh = UctPlanner(StalmSettings(search=SearchSettings(budget=6), reuse_tree=False))
+    fresh = UctPlanner(plain_settings(6, ("execution.reuse_tree", False)))
     assert (
         fresh.solve(problems["P2"], seed=1, time_budget_s=8.0).details["reused_root_visits"] == []
     )
@@ -218,7 +218,7 @@ def test_the_progress_rule_searches_on_a_counted_number_of_times_then_falls_back
     """With one simulation per search the tree cannot see a goal conjunct two actions away,
     so 'progress' searches on exactly ``search_rounds`` times and then executes the best-Q
     root action: a count, so the same seed decides the same on a fast or a slow machine."""
-    settings = StalmSettings(search=SearchSettings(budget=1), execution="progress", search_rounds=3)
+    settings = plain_settings(1, ("execution.rule", "progress"), ("execution.search_rounds", 3))
     result = UctPlanner(settings).solve(problems["P2"], seed=0, time_budget_s=10.0)
     first = result.details["step_log"][0]
     assert first["decision"] == "best_q_fallback"
@@ -240,7 +240,7 @@ class NoPlanProposerDouble:
 
 def test_a_proposer_that_found_no_plan_counts_as_no_plan_not_unparseable(problems) -> None:
     """Figure 5 tells a search that found nothing from a reply that could not be read."""
-    settings = StalmSettings(search=SearchSettings(budget=2), occlusion_predicates=False)
+    settings = plain_settings(2, ("prompt.occlusion_predicates", False))
     result = StalmPlanner(NoPlanProposerDouble(), settings).solve(problems["P2"], 0, 1.5)
     assert result.llm_plan_failures.get("no_plan", 0) >= 1
     assert "unparseable" not in result.llm_plan_failures

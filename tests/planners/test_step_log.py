@@ -8,11 +8,11 @@ import json
 
 import numpy as np
 
-from stalm.planners.stalm import StalmPlanner, StalmSettings
+from stalm.planners.stalm import StalmPlanner
 from stalm.planners.step_log import DECISIONS, task_plan_record, tree_record, warm_edges
 from stalm.search import SearchSettings, SearchTree, concretize, warm_started_uct
 from stalm.world.problem import Problem
-from tests.planners.doubles import ScriptedSuffixProposer
+from tests.planners.doubles import ScriptedSuffixProposer, plain_settings
 from tests.search.synthetic import detour, plan, state
 
 
@@ -57,7 +57,7 @@ def test_stalm_writes_one_step_record_per_real_step(problems) -> None:
         planner = StalmPlanner(
             proposer,
             # the scripted proposer reads no predicates: spare the occlusion motion planning
-            StalmSettings(search=SearchSettings(budget=10), occlusion_predicates=False),
+            plain_settings(10, ("prompt.occlusion_predicates", False)),
         )
         result = planner.solve(short, 4, 240.0)
     finally:

@@ -9,9 +9,9 @@ from pathlib import Path
 from stalm.domain.mdp import Domain
 from stalm.planners import symbolic
 from stalm.planners.replay import replay_plan
-from stalm.planners.stalm import StalmPlanner, StalmSettings
+from stalm.planners.stalm import StalmPlanner
 from stalm.planners.symbolic import SymbolicProposer, downward_binary
-from stalm.search import SearchSettings
+from tests.planners.doubles import plain_settings
 
 
 def test_fast_downward_plans_from_the_p2_predicates(problems, initial_literals) -> None:
@@ -55,7 +55,7 @@ def test_the_p5_grill_goes_first_symbolically(problems, initial_literals) -> Non
 def test_stalm_with_the_symbolic_proposer_solves_p2(problems) -> None:
     # Seed 1 reaches the goal in two replanning steps with 49 simulations of warm-started UCT;
     # seed 0 takes four steps and about 3x the CPU time.
-    planner = StalmPlanner(SymbolicProposer(), StalmSettings(search=SearchSettings(budget=30)))
+    planner = StalmPlanner(SymbolicProposer(), plain_settings(30))
     result = planner.solve(problems["P2"], seed=1, time_budget_s=240.0)
     assert result.success and result.counters.llm_calls == 0
     assert replay_plan(problems["P2"], problems["P2"].initial_state, list(result.plan)).reached_goal
