@@ -9,6 +9,8 @@ and exit code 2 instead of a traceback.
 from __future__ import annotations
 
 import sys
+import warnings
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -25,7 +27,7 @@ from stalm.cli import (
     world_commands,
 )
 from stalm.cli.display import shown
-from stalm.errors import StalmError
+from stalm.errors import StalmError, StalmWarning
 
 app = typer.Typer(
     name="stalm",
@@ -58,9 +60,29 @@ def main() -> None:
     a command (bad file, unknown name, unreachable server) is printed as one ``error:`` line
     with exit code 2 instead of a traceback (quoted text escaped, see :mod:`stalm.cli.display`).
     """
+    _one_line_warnings()
     try:
         app()
     except StalmError as error:
         # the message may quote a file, a reply or a server: escaped, and never wrapped
         ERROR_CONSOLE.print(f"[bold red]error:[/] {shown(error)}", highlight=False, soft_wrap=True)
         sys.exit(2)
+
+
+def _one_line_warnings() -> None:
+    """Show a :class:`StalmWarning` as one ``warning:`` line (other warnings as Python does):
+    it tells the user something about their setup, not where in stalm's code it was noticed."""
+    default = warnings.showwarning
+    if getattr(default, "stalm_one_line", False):
+        return  # already installed (main() run again in one process, as tests do)
+
+    def show(message: Warning | str, category: type[Warning], *args: Any, **kwargs: Any) -> None:
+        if issubclass(category, StalmWarning):
+            ERROR_CONSOLE.print(
+                f"[yellow]warning:[/] {shown(message)}", highlight=False, soft_wrap=True
+            )
+        else:
+            default(message, category, *args, **kwargs)
+
+    show.stalm_one_line = True  # type: ignore[attr-defined]
+    warnings.showwarning = show
