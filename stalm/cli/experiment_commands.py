@@ -22,6 +22,7 @@ from rich.progress import (
 from stalm.cli.display import printable, shown
 from stalm.cli.settings_options import SET_HELP, SETTINGS_HELP, command_settings, given
 from stalm.errors import StalmError
+from stalm.stopping import Stopped, stop_code, stop_message
 
 if TYPE_CHECKING:
     from stalm.experiments.trials import Arm
@@ -221,13 +222,13 @@ def experiment_command(
                 summary = run_experiment(
                     specs, log, workers=workers, ray_address=ray, on_record=on_record
                 )
-            except KeyboardInterrupt:
+            except (KeyboardInterrupt, Stopped) as stop:
                 console.print(
-                    f"[yellow]stopped:[/] {ran} trials saved in {log.path}; run the same command "
-                    "to resume",
+                    f"[yellow]{stop_message(stop)}:[/] {ran} trials saved in {log.path}; run "
+                    "the same command to resume",
                     highlight=False,
                 )
-                raise typer.Exit(130) from None
+                raise typer.Exit(stop_code(stop)) from None
     console.print(
         f"ran {summary.ran} trials ({summary.solved} solved, {summary.errors} errors) in "
         f"{time.monotonic() - started:.0f} s; {summary.skipped} were already done",

@@ -28,6 +28,13 @@ from stalm.cli import (
 )
 from stalm.cli.display import shown
 from stalm.errors import StalmError, StalmWarning
+from stalm.stopping import (
+    Stopped,
+    end_helper_processes,
+    stop_code,
+    stop_message,
+    stopping_on_signals,
+)
 
 app = typer.Typer(
     name="stalm",
@@ -59,14 +66,29 @@ def main() -> None:
     Typer's own handling reports usage mistakes (exit code 2); a :class:`StalmError` raised by
     a command (bad file, unknown name, unreachable server) is printed as one ``error:`` line
     with exit code 2 instead of a traceback (quoted text escaped, see :mod:`stalm.cli.display`).
+    TERM, HUP and INT stop the command with everything it started and exit 128 + the signal's
+    number (:mod:`stalm.stopping`).
     """
     _one_line_warnings()
+    code: int | str | None = 0
     try:
-        app()
-    except StalmError as error:
-        # the message may quote a file, a reply or a server: escaped, and never wrapped
-        ERROR_CONSOLE.print(f"[bold red]error:[/] {shown(error)}", highlight=False, soft_wrap=True)
-        sys.exit(2)
+        with stopping_on_signals():
+            try:
+                app()
+            except StalmError as error:
+                # the message may quote a file, a reply or a server: escaped, never wrapped
+                ERROR_CONSOLE.print(
+                    f"[bold red]error:[/] {shown(error)}", highlight=False, soft_wrap=True
+                )
+                code = 2
+            except (Stopped, KeyboardInterrupt) as stop:
+                # whatever it interrupted has been cleaned up on the way here (stalm.stopping)
+                ERROR_CONSOLE.print(f"[yellow]{stop_message(stop)}[/]", highlight=False)
+                code = stop_code(stop)
+    except SystemExit as done:
+        code = done.code
+    end_helper_processes()  # after the run's traceback and its pool are gone
+    sys.exit(code)
 
 
 def _one_line_warnings() -> None:
