@@ -45,6 +45,7 @@ class PhaseClock:
     concretize: float = 0.0
     tree: float = 0.0
     execution: float = 0.0
+    setup: float = 0.0
     _inner: list[float] = field(default_factory=list, repr=False)
     """Per running :meth:`timed` block: the seconds of the blocks timed inside it so far."""
 
@@ -242,6 +243,7 @@ class Episode:
                 clock.execution,
                 total,
                 cpu_seconds() - self.cpu_start,
+                clock.setup,
             ),
             counters=Counters(
                 llm_calls=self.llm_calls,
