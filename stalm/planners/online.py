@@ -37,6 +37,7 @@ from stalm.predicates.samples import PredicateSettings
 from stalm.search import SearchSettings, SearchTree
 from stalm.world.problem import Problem
 from stalm.world.scene import Sim
+from stalm.world.scene_build import SceneAbandoned
 from stalm.world.state import State
 
 Decision = tuple[Action, ...] | str
@@ -185,17 +186,22 @@ class OnlinePlanner(ABC):
 
         Set-up (the scene, the domain, the predicate engine, the method's start) is the
         trial's first phase, 'setup', inside its deadline: once the deadline has passed, no
-        further set-up step runs and the trial ends as 'timeout'."""
+        further set-up step runs (the scene stops between two objects) and the trial ends as
+        'timeout'."""
         seed = check_seed(seed)
         time_budget_s = check_time_budget(time_budget_s)
         episode = Episode.begin(problem, time_budget_s)
-        with episode.clock.timed("setup"):
-            domain = Domain(
-                problem,
-                Sim(problem.spec),
-                sampler_settings=self.sampling.samplers,
-                reward_settings=self.rewards,
-            )
+        try:
+            with episode.clock.timed("setup"):
+                domain = Domain(
+                    problem,
+                    Sim(problem.spec, stop=episode.out_of_time),
+                    sampler_settings=self.sampling.samplers,
+                    reward_settings=self.rewards,
+                )
+        except SceneAbandoned:
+            self.say("the deadline passed while the scene was built")
+            return episode.finish(None, self.name, seed, "timeout")
         try:
             with episode.clock.timed("setup"):
                 trial, decider = self._set_up(domain, episode, seed)

@@ -66,3 +66,26 @@ def test_set_up_has_its_phase_in_every_trial(problems, slow_scene, planner: str)
     )
     assert result.termination == "timeout"
     assert SLOW_S <= result.times.setup <= result.times.total
+
+
+def test_the_deadline_stops_building_a_scene_between_two_objects(problems, monkeypatch) -> None:
+    """P3's twelve objects, each slowed until the tiny budget has surely passed after the
+    first: the scene is given up after it, the trial ends as 'timeout' with no counters."""
+    from stalm.world import scene_build
+
+    built: list[str] = []
+    make = scene_build._object_body
+
+    def slow_object(client: int, obj: object) -> int:
+        built.append(obj.name)  # type: ignore[attr-defined]
+        time.sleep(SLOW_S)
+        return make(client, obj)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(scene_build, "_object_body", slow_object)
+    p3 = problems["P3"]
+    result = build_planner("uct", PlannerConfig()).solve(p3, seed=0, time_budget_s=BUDGET_S)
+    assert result.termination == "timeout" and not result.success
+    assert len(built) == 1 < len(p3.spec.objects)  # the deadline passed during the first
+    assert result.plan == () and result.states == (p3.initial_state,)
+    assert SLOW_S <= result.times.setup <= result.times.total
+    assert result.counters.collision_checks == 0
