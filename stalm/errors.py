@@ -8,3 +8,9 @@ print one clear line instead of a traceback.
 
 class StalmError(Exception):
     """A failure caused by input the user controls (files, names, servers, flags)."""
+
+
+class StalmWarning(UserWarning):
+    """Something the user should know that does not stop the run (a cache that cannot be
+    written, so its contents are rebuilt each time). The CLI prints it as one ``warning:``
+    line."""

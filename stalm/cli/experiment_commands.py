@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -21,6 +22,7 @@ from rich.progress import (
 from stalm.cli.display import printable, shown
 from stalm.cli.settings_options import SET_HELP, SETTINGS_HELP, command_settings, given
 from stalm.errors import StalmError
+from stalm.stopping import Stopped, stop_code, stop_message
 
 if TYPE_CHECKING:
     from stalm.experiments.trials import Arm
@@ -161,70 +163,72 @@ def experiment_command(
     specs = trial_specs(plan)
     # the noisy proposer's Table 3 is a table of its own, not rows added to the model's
     stem = f"{name}-noisy" if name == "table3" and base.proposer.kind == "noisy" else name
-    log = ResultsLog(results or Path("results") / f"{stem}.jsonl")
-    if log.set_aside is not None:
-        console.print(
-            f"[yellow]warning:[/] {shown(log.path)}: moved its partial last line to "
-            f"{shown(log.set_aside)}",
-            highlight=False,
-            soft_wrap=True,
-        )
-    loaded = log.load()
-    for problem in loaded.problems:
-        console.print(f"[yellow]warning:[/] {shown(problem)}", highlight=False, soft_wrap=True)
-    finished = loaded.finished_keys()
-    done_before = sum(spec.key in finished for spec in specs)
-    rows = ", ".join(arm.label for arm in plan.arms)
-    console.print(
-        f"{name}: {len(specs)} trials ({rows} on {', '.join(plan.problems)}, {plan.trials} "
-        f"each); {done_before} already in {log.path}",
-        highlight=False,
-    )
-    solved = 0
-    ran = 0
-    started = time.monotonic()
-    with Progress(
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("solved {task.fields[solved]}"),
-        TimeElapsedColumn(),
-        TextColumn("ETA"),
-        TimeRemainingColumn(),
-        console=console,
-        transient=False,
-    ) as progress:
-        task = progress.add_task(name, total=len(specs) - done_before, solved=0)
-
-        def on_record(record: dict[str, Any]) -> None:
-            nonlocal solved, ran
-            ran += 1
-            solved += bool(record.get("success"))
-            progress.update(task, advance=1, solved=f"{solved}/{ran}")
-            status = "solved" if record.get("success") else shown(record.get("termination"))
-            if record.get("termination") == "error":
-                status = "[red]error[/]: " + shown(record.get("error"))
-            progress.console.print(
-                f"{shown(record['arm'])} {shown(record['problem'])} trial {record['trial']}: "
-                f"{status} "
-                f"in {float(record.get('time_s', 0.0)):.1f} s",
-                highlight=False,
-            )
-            if record.get("termination") == "error":
-                errors.append(f"{record['arm']} {record['problem']}: {record.get('error')}")
-
-        errors: list[str] = []
-        try:
-            summary = run_experiment(
-                specs, log, workers=workers, ray_address=ray, on_record=on_record
-            )
-        except KeyboardInterrupt:
+    path = results or Path("results") / f"{stem}.jsonl"
+    with _one_writer(path):
+        log = ResultsLog(path)
+        if log.set_aside is not None:
             console.print(
-                f"[yellow]stopped:[/] {ran} trials saved in {log.path}; run the same command "
-                "to resume",
+                f"[yellow]warning:[/] {shown(log.path)}: moved its partial last line to "
+                f"{shown(log.set_aside)}",
                 highlight=False,
+                soft_wrap=True,
             )
-            raise typer.Exit(130) from None
+        loaded = log.load()
+        for problem in loaded.problems:
+            console.print(f"[yellow]warning:[/] {shown(problem)}", highlight=False, soft_wrap=True)
+        finished = loaded.finished_keys()
+        done_before = sum(spec.key in finished for spec in specs)
+        rows = ", ".join(arm.label for arm in plan.arms)
+        console.print(
+            f"{name}: {len(specs)} trials ({rows} on {', '.join(plan.problems)}, {plan.trials} "
+            f"each); {done_before} already in {log.path}",
+            highlight=False,
+        )
+        solved = 0
+        ran = 0
+        started = time.monotonic()
+        with Progress(
+            TextColumn("[bold]{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("solved {task.fields[solved]}"),
+            TimeElapsedColumn(),
+            TextColumn("ETA"),
+            TimeRemainingColumn(),
+            console=console,
+            transient=False,
+        ) as progress:
+            task = progress.add_task(name, total=len(specs) - done_before, solved=0)
+
+            def on_record(record: dict[str, Any]) -> None:
+                nonlocal solved, ran
+                ran += 1
+                solved += bool(record.get("success"))
+                progress.update(task, advance=1, solved=f"{solved}/{ran}")
+                status = "solved" if record.get("success") else shown(record.get("termination"))
+                if record.get("termination") == "error":
+                    status = "[red]error[/]: " + shown(record.get("error"))
+                progress.console.print(
+                    f"{shown(record['arm'])} {shown(record['problem'])} trial {record['trial']}: "
+                    f"{status} "
+                    f"in {float(record.get('time_s', 0.0)):.1f} s",
+                    highlight=False,
+                )
+                if record.get("termination") == "error":
+                    errors.append(f"{record['arm']} {record['problem']}: {record.get('error')}")
+
+            errors: list[str] = []
+            try:
+                summary = run_experiment(
+                    specs, log, workers=workers, ray_address=ray, on_record=on_record
+                )
+            except (KeyboardInterrupt, Stopped) as stop:
+                console.print(
+                    f"[yellow]{stop_message(stop)}:[/] {ran} trials saved in {log.path}; run "
+                    "the same command to resume",
+                    highlight=False,
+                )
+                raise typer.Exit(stop_code(stop)) from None
     console.print(
         f"ran {summary.ran} trials ({summary.solved} solved, {summary.errors} errors) in "
         f"{time.monotonic() - started:.0f} s; {summary.skipped} were already done",
@@ -238,6 +242,20 @@ def experiment_command(
             highlight=False,
         )
         raise typer.Exit(1)
+
+
+@contextmanager
+def _one_writer(path: Path) -> Iterator[None]:
+    """Hold the results file's lock for the block; another run holding it ends this command
+    with exit code 1 and one line naming that run (see :mod:`stalm.experiments.results_lock`)."""
+    from stalm.experiments.results_lock import ResultsBusy, results_lock
+
+    try:
+        with results_lock(path):
+            yield
+    except ResultsBusy as error:  # raised only on entering: another run holds the file
+        console.print(f"[bold red]error:[/] {shown(error)}", highlight=False, soft_wrap=True)
+        raise typer.Exit(1) from None
 
 
 def _check_model_rows(arms: Sequence[Arm]) -> None:

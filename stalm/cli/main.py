@@ -9,6 +9,8 @@ and exit code 2 instead of a traceback.
 from __future__ import annotations
 
 import sys
+import warnings
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -25,7 +27,14 @@ from stalm.cli import (
     world_commands,
 )
 from stalm.cli.display import shown
-from stalm.errors import StalmError
+from stalm.errors import StalmError, StalmWarning
+from stalm.stopping import (
+    Stopped,
+    end_helper_processes,
+    stop_code,
+    stop_message,
+    stopping_on_signals,
+)
 
 app = typer.Typer(
     name="stalm",
@@ -57,10 +66,45 @@ def main() -> None:
     Typer's own handling reports usage mistakes (exit code 2); a :class:`StalmError` raised by
     a command (bad file, unknown name, unreachable server) is printed as one ``error:`` line
     with exit code 2 instead of a traceback (quoted text escaped, see :mod:`stalm.cli.display`).
+    TERM, HUP and INT stop the command with everything it started and exit 128 + the signal's
+    number (:mod:`stalm.stopping`).
     """
+    _one_line_warnings()
+    code: int | str | None = 0
     try:
-        app()
-    except StalmError as error:
-        # the message may quote a file, a reply or a server: escaped, and never wrapped
-        ERROR_CONSOLE.print(f"[bold red]error:[/] {shown(error)}", highlight=False, soft_wrap=True)
-        sys.exit(2)
+        with stopping_on_signals():
+            try:
+                app()
+            except StalmError as error:
+                # the message may quote a file, a reply or a server: escaped, never wrapped
+                ERROR_CONSOLE.print(
+                    f"[bold red]error:[/] {shown(error)}", highlight=False, soft_wrap=True
+                )
+                code = 2
+            except (Stopped, KeyboardInterrupt) as stop:
+                # whatever it interrupted has been cleaned up on the way here (stalm.stopping)
+                ERROR_CONSOLE.print(f"[yellow]{stop_message(stop)}[/]", highlight=False)
+                code = stop_code(stop)
+    except SystemExit as done:
+        code = done.code
+    end_helper_processes()  # after the run's traceback and its pool are gone
+    sys.exit(code)
+
+
+def _one_line_warnings() -> None:
+    """Show a :class:`StalmWarning` as one ``warning:`` line (other warnings as Python does):
+    it tells the user something about their setup, not where in stalm's code it was noticed."""
+    default = warnings.showwarning
+    if getattr(default, "stalm_one_line", False):
+        return  # already installed (main() run again in one process, as tests do)
+
+    def show(message: Warning | str, category: type[Warning], *args: Any, **kwargs: Any) -> None:
+        if issubclass(category, StalmWarning):
+            ERROR_CONSOLE.print(
+                f"[yellow]warning:[/] {shown(message)}", highlight=False, soft_wrap=True
+            )
+        else:
+            default(message, category, *args, **kwargs)
+
+    show.stalm_one_line = True  # type: ignore[attr-defined]
+    warnings.showwarning = show

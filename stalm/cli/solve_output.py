@@ -57,7 +57,8 @@ def print_result(result: PlanResult) -> None:
     t = result.times
     c = result.counters
     out.print(
-        f"time {t.total:.1f} s (predicates {t.predicates:.1f}, LLM {t.llm:.1f}, concretize "
+        f"time {t.total:.1f} s (set-up {t.setup:.1f}, predicates {t.predicates:.1f}, LLM "
+        f"{t.llm:.1f}, concretize "
         f"{t.concretize:.1f}, tree {t.tree_search:.1f}, execution {t.execution:.1f}); "
         f"LLM calls {c.llm_calls} ({c.prompt_tokens}+{c.completion_tokens} tokens), "
         f"T calls {c.transitions}, samples {c.samples}, simulations {c.simulations}, "

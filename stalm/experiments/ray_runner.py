@@ -84,7 +84,9 @@ def run_on_ray(
             )
         except (ConnectionError, RuntimeError, ValueError) as error:
             raise StalmError(f"cannot reach the Ray cluster at {address!r}: {error}") from error
-    cache = cache or ReplyCache()
+    if cache is None:  # replay only reads: a cache nobody may write still replays
+        replay = all(spec.arm.config.llm.cache == "replay" for spec in todo)
+        cache = ReplyCache(read_only=replay)
     try:
         snapshot = ray.put(_cache_snapshot(cache))
         remote = ray.remote(num_cpus=1, max_retries=0)(trial_with_cache_copy)

@@ -9,11 +9,15 @@ and model after start-up, and nothing of the caller's state leaks into them.
 from __future__ import annotations
 
 import multiprocessing
+import os
+import signal
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
+from types import FrameType
 from typing import Any
 
+from stalm import stopping
 from stalm.errors import StalmError
 from stalm.experiments.results_log import ResultsLog
 from stalm.experiments.trials import TrialSpec, run_trial
@@ -79,9 +83,17 @@ def run_experiment(
     return RunSummary(len(specs), len(specs) - len(todo), len(todo), solved, errors)
 
 
+WORKER_STOP_S = 20.0
+"""How long a stopped worker may take to clean up (kill its Fast Downward child, remove its
+trial's folders) before it is killed."""
+
+
 def _run_in_processes(todo: Sequence[TrialSpec], workers: int, keep: OnRecord) -> None:
     context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+    # each worker stops on TERM, INT and HUP as this process does, cleaning up as it unwinds
+    with ProcessPoolExecutor(
+        max_workers=workers, mp_context=context, initializer=_start_worker
+    ) as pool:
         queue = list(todo)
         running: dict[Future[dict[str, Any]], TrialSpec] = {}
         try:
@@ -89,15 +101,55 @@ def _run_in_processes(todo: Sequence[TrialSpec], workers: int, keep: OnRecord) -
                 # submit only as many as can run, so a stop leaves the rest unstarted
                 while queue and len(running) < workers:
                     spec = queue.pop(0)
-                    running[pool.submit(run_trial, spec)] = spec
+                    running[pool.submit(run_trial_in_worker, spec)] = spec
                 done, _ = wait(running, return_when=FIRST_COMPLETED)
                 for future in done:
                     running.pop(future)
                     keep(future.result())
         except BaseException:
-            # stop now: running trials are lost (their records were never written)
+            # stop now: running trials are lost (their records were never written); each
+            # worker is told to stop, and given the time to clean up before it is killed
             processes = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=False, cancel_futures=True)
             for process in processes:
                 process.terminate()
+            for process in processes:
+                process.join(WORKER_STOP_S)
+                if process.is_alive():
+                    process.kill()
+                    process.join()
             raise
+
+
+_in_trial = False
+"""Whether this worker process is running a trial (see :func:`_stop_worker`)."""
+
+
+def _start_worker() -> None:
+    for number in stopping.STOP_SIGNALS:
+        if signal.getsignal(number) is not signal.SIG_IGN:  # as stopping.install
+            signal.signal(number, _stop_worker)
+
+
+def _stop_worker(signum: int, frame: FrameType | None) -> None:
+    """A worker stops on TERM, INT or HUP as the CLI does: inside a trial by unwinding it
+    (:class:`~stalm.stopping.Stopped`, which cleans up its children and folders), while idle
+    by ending at once (SystemExit, which multiprocessing ends a process with quietly)."""
+    for number in stopping.STOP_SIGNALS:
+        signal.signal(number, signal.SIG_IGN)
+    if _in_trial:
+        raise stopping.Stopped(signum)
+    raise SystemExit(128 + signum)
+
+
+def run_trial_in_worker(spec: TrialSpec) -> dict[str, Any]:
+    """:func:`run_trial` in a pool's worker. A stop there has already cleaned up the trial
+    when it arrives here; the worker then ends, rather than wait for a next trial."""
+    global _in_trial
+    _in_trial = True
+    try:
+        return run_trial(spec)
+    except stopping.Stopped as stop:
+        os._exit(stop.exit_code)
+    finally:
+        _in_trial = False

@@ -72,7 +72,10 @@ class CachedBackend:
     ) -> None:
         self._inner = inner
         self._mode = check_cache_mode(mode)
-        self._cache = cache if cache is not None or self._mode == "off" else ReplyCache()
+        if cache is None and self._mode != "off":
+            # replay only reads: a cache nobody may write still replays
+            cache = ReplyCache(read_only=self._mode == "replay")
+        self._cache = cache
 
     @property
     def name(self) -> str:

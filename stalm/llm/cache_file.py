@@ -17,6 +17,7 @@ import json
 import os
 import sqlite3
 import time
+import urllib.parse
 from collections.abc import Iterable, Iterator
 from contextlib import closing, contextmanager
 from dataclasses import dataclass
@@ -129,8 +130,17 @@ class ReplyCache:
     into the main file when the last user closes it, leaving one self-contained file to send.
     """
 
-    def __init__(self, path: str | os.PathLike[str] | None = None) -> None:
+    def __init__(
+        self, path: str | os.PathLike[str] | None = None, *, read_only: bool = False
+    ) -> None:
         self._path = Path(path).expanduser() if path is not None else default_cache_path()
+        self._read_only = read_only
+        self._uri: str | None = None
+        """How a read-only cache is opened (an SQLite URI); None: the path, read-write."""
+        self._has_call_seconds = True
+        if read_only:
+            self._open_read_only()
+            return
         try:
             self._path.parent.mkdir(parents=True, exist_ok=True)
             with self._connect() as conn:
@@ -144,14 +154,46 @@ class ReplyCache:
         except (OSError, sqlite3.Error) as error:
             raise StalmError(f"cannot open the reply cache {self._path}: {error}") from error
 
+    def _open_read_only(self) -> None:
+        """Open the file for reading only (replay): nothing is created, upgraded or written,
+        so a cache on a read-only medium or in a folder the user may not write replays.
+
+        ``mode=ro`` still needs the write-ahead log's shared-memory file beside the database,
+        which a read-only folder cannot hold; then the file is read as ``immutable`` (nobody
+        can be writing it where nobody may write)."""
+        if not self._path.is_file():
+            raise StalmError(f"no reply cache to replay at {self._path}")
+        base = "file:" + urllib.parse.quote(str(self._path.absolute()))
+        failure: sqlite3.Error | None = None
+        for query in ("?mode=ro", "?mode=ro&immutable=1"):
+            self._uri = base + query
+            try:
+                with self._connect() as conn:
+                    self._has_call_seconds = "call_seconds" in _columns(conn, "main")
+                    conn.execute("SELECT COUNT(*) FROM replies").fetchone()
+                return
+            except sqlite3.Error as error:
+                failure = error
+        raise StalmError(f"cannot read the reply cache {self._path}: {failure}") from None
+
     @property
     def path(self) -> Path:
         return self._path
 
+    @property
+    def read_only(self) -> bool:
+        return self._read_only
+
+    def _open(self) -> sqlite3.Connection:
+        if self._uri is not None:
+            return sqlite3.connect(self._uri, uri=True, timeout=_BUSY_TIMEOUT_S)
+        return sqlite3.connect(self._path, timeout=_BUSY_TIMEOUT_S)
+
     @contextmanager
     def _connect(self) -> Iterator[sqlite3.Connection]:
-        with closing(sqlite3.connect(self._path, timeout=_BUSY_TIMEOUT_S)) as conn:
-            conn.execute("PRAGMA synchronous=NORMAL")
+        with closing(self._open()) as conn:
+            if not self._read_only:
+                conn.execute("PRAGMA synchronous=NORMAL")
             with conn:  # one short transaction, committed on success
                 yield conn
 
@@ -165,6 +207,8 @@ class ReplyCache:
         if not wanted:
             return {}
         found: dict[str, StoredReply] = {}
+        # a read-only file from before call_seconds cannot gain the column: read it as NULL
+        call = "call_seconds" if self._has_call_seconds else "NULL"
         try:
             with self._connect() as conn:
                 for start in range(0, len(wanted), 500):
@@ -172,7 +216,7 @@ class ReplyCache:
                     marks = ",".join("?" * len(chunk))
                     rows = conn.execute(
                         "SELECT key, text, prompt_tokens, completion_tokens, latency_s, "
-                        f"finish_reason, call_seconds FROM replies WHERE key IN ({marks})",
+                        f"finish_reason, {call} FROM replies WHERE key IN ({marks})",
                         chunk,
                     )
                     for row in rows:
@@ -220,6 +264,8 @@ class ReplyCache:
             )
         if not rows:
             return
+        if self._read_only:
+            raise StalmError(f"the reply cache {self._path} was opened read-only (replay)")
         try:
             with self._connect() as conn:
                 conn.executemany(
@@ -270,7 +316,7 @@ class ReplyCache:
         target.parent.mkdir(parents=True, exist_ok=True)
         try:
             with (
-                closing(sqlite3.connect(self._path, timeout=_BUSY_TIMEOUT_S)) as source,
+                closing(self._open()) as source,
                 closing(sqlite3.connect(target)) as sink,
             ):
                 source.backup(sink)

@@ -28,7 +28,9 @@ import heapq
 import json
 import math
 import os
+import warnings
 from collections.abc import Callable, Iterable, Sequence
+from contextlib import suppress
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -36,6 +38,7 @@ import numpy as np
 import pybullet as p
 
 from stalm.cache_dir import stalm_cache_dir
+from stalm.errors import StalmWarning
 from stalm.world import robot as robot_model
 from stalm.world.scene import PENETRATION_TOLERANCE, Sim
 from stalm.world.spec import ProblemSpec
@@ -340,11 +343,40 @@ def load_or_build_roadmap(
         if cached is not None:
             return cached
     roadmap = build_roadmap(sim, open_doors, settings)
+    _store(path, roadmap)
+    return roadmap
+
+
+_UNCACHEABLE: set[Path] = set()
+"""Cache folders found unwritable in this process: warned about once, never tried again."""
+
+
+def _store(path: Path, roadmap: Roadmap) -> None:
+    """Keep ``roadmap`` at ``path`` for later runs, if the cache folder can be written.
+
+    A cache is a saving, not a need: when ``$STALM_CACHE_DIR`` is a file or a folder the user
+    may not write, the roadmap stays in memory and the run goes on, with one warning per folder
+    (a worker process warns once for itself) rather than a traceback."""
+    folder = path.parent
+    if folder in _UNCACHEABLE:
+        return
     edges = np.array(
         [(i, j) for i, nbrs in enumerate(roadmap.adjacency) for j in nbrs if i < j], dtype=np.int64
     ).reshape(-1, 2)
-    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-    np.savez(tmp, nodes=roadmap.nodes, edges=edges, anchors=np.array(roadmap.anchors))
-    os.replace(tmp, path)
-    return roadmap
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        try:
+            np.savez(tmp, nodes=roadmap.nodes, edges=edges, anchors=np.array(roadmap.anchors))
+            os.replace(tmp, path)
+        finally:
+            with suppress(OSError):
+                tmp.unlink(missing_ok=True)
+    except OSError as error:
+        _UNCACHEABLE.add(folder)
+        warnings.warn(
+            f"cannot cache roadmaps in {folder} ({error.strerror or error}); they are built "
+            "anew in every run (set STALM_CACHE_DIR to a folder you may write)",
+            StalmWarning,
+            stacklevel=3,
+        )

@@ -35,6 +35,9 @@ class PhaseTimes:
     execution: float = 0.0
     total: float = 0.0
     cpu: float = 0.0
+    setup: float = 0.0
+    """Building the trial's scene, domain and method before its first decision (on a scene of
+    thousands of objects, seconds of the budget)."""
 
 
 def cpu_seconds() -> float:

@@ -99,7 +99,9 @@ def llm_backend(settings: RunSettings) -> LLMBackend:
     from stalm.llm.cache_file import ReplyCache
 
     llm = settings.llm
-    cache = ReplyCache(llm.cache_file) if llm.cache_file is not None else None
+    cache = None
+    if llm.cache_file is not None:
+        cache = ReplyCache(llm.cache_file, read_only=llm.cache == "replay")
     return CachedBackend(make_backend(llm.backend), cache, mode=llm.cache)
 
 

@@ -45,6 +45,7 @@ class PhaseClock:
     concretize: float = 0.0
     tree: float = 0.0
     execution: float = 0.0
+    setup: float = 0.0
     _inner: list[float] = field(default_factory=list, repr=False)
     """Per running :meth:`timed` block: the seconds of the blocks timed inside it so far."""
 
@@ -205,7 +206,7 @@ class Episode:
 
     def finish(
         self,
-        domain: Domain,
+        domain: Domain | None,
         planner: str,
         seed: int,
         termination: str,
@@ -214,7 +215,8 @@ class Episode:
         replans: int = 0,
         details: dict[str, Any] | None = None,
     ) -> PlanResult:
-        """The trial's result; a 'goal' run is replayed in a fresh scene before it counts."""
+        """The trial's result; a 'goal' run is replayed in a fresh scene before it counts.
+        ``domain`` is None for a trial whose deadline passed before its scene was built."""
         verified = True
         replay_reason = None
         if termination == "goal":
@@ -242,14 +244,15 @@ class Episode:
                 clock.execution,
                 total,
                 cpu_seconds() - self.cpu_start,
+                clock.setup,
             ),
             counters=Counters(
                 llm_calls=self.llm_calls,
                 prompt_tokens=self.prompt_tokens,
                 completion_tokens=self.completion_tokens,
-                transitions=domain.counters.transitions,
-                samples=domain.counters.samples,
-                collision_checks=domain.sim.collision_checks,
+                transitions=domain.counters.transitions if domain else 0,
+                samples=domain.counters.samples if domain else 0,
+                collision_checks=domain.sim.collision_checks if domain else 0,
                 simulations=simulations,
                 replans=replans,
             ),

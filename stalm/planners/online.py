@@ -37,6 +37,7 @@ from stalm.predicates.samples import PredicateSettings
 from stalm.search import SearchSettings, SearchTree
 from stalm.world.problem import Problem
 from stalm.world.scene import Sim
+from stalm.world.scene_build import SceneAbandoned
 from stalm.world.state import State
 
 Decision = tuple[Action, ...] | str
@@ -183,35 +184,30 @@ class OnlinePlanner(ABC):
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
         """Plan and execute until the goal, the horizon or the time budget (None: the
-        problem's), in a simulator of the trial's own that is always closed."""
+        problem's), in a simulator of the trial's own that is always closed.
+
+        Set-up (the scene, the domain, the predicate engine, the method's start) is the
+        trial's first phase, 'setup', inside its deadline: once the deadline has passed, no
+        further set-up step runs (the scene stops between two objects) and the trial ends as
+        'timeout'."""
         seed = check_seed(seed)
         time_budget_s = check_time_budget(time_budget_s)
         episode = Episode.begin(problem, time_budget_s)
-        domain = Domain(
-            problem,
-            Sim(problem.spec),
-            sampler_settings=self.sampling.samplers,
-            reward_settings=self.rewards,
-        )
         try:
-            engine = PredicateEngine(
-                problem,
-                domain.sim,
-                domain.base_planner,
-                self.sampling.predicates,
-                occlusion=self.occlusion,
-            )
-            trial = Trial(
-                domain,
-                episode,
-                PredicateMemo(engine, episode.clock, episode.out_of_time),
-                np.random.default_rng(seed),
-                seed,
-                progress=self.progress,
-                reuse_tree=self.reuse_tree,
-            )
-            decider = self.start(trial)
-            termination = run(trial, decider)
+            with episode.clock.timed("setup"):
+                domain = Domain(
+                    problem,
+                    Sim(problem.spec, stop=episode.out_of_time),
+                    sampler_settings=self.sampling.samplers,
+                    reward_settings=self.rewards,
+                )
+        except SceneAbandoned:
+            self.say("the deadline passed while the scene was built")
+            return episode.finish(None, self.name, seed, "timeout")
+        try:
+            with episode.clock.timed("setup"):
+                trial, decider = self._set_up(domain, episode, seed)
+            termination = "timeout" if decider is None else run(trial, decider)
             return episode.finish(
                 domain,
                 self.name,
@@ -219,10 +215,34 @@ class OnlinePlanner(ABC):
                 termination,
                 simulations=trial.simulations,
                 replans=trial.replans,
-                details=decider.details(),
+                details={} if decider is None else decider.details(),
             )
         finally:
             domain.close()
+
+    def _set_up(self, domain: Domain, episode: Episode, seed: int) -> tuple[Trial, Decider | None]:
+        """The trial and the method's decisions; no decisions when the deadline passed while
+        the scene was built (then the method is not started at all)."""
+        engine = PredicateEngine(
+            episode.problem,
+            domain.sim,
+            domain.base_planner,
+            self.sampling.predicates,
+            occlusion=self.occlusion,
+        )
+        trial = Trial(
+            domain,
+            episode,
+            PredicateMemo(engine, episode.clock, episode.out_of_time),
+            np.random.default_rng(seed),
+            seed,
+            progress=self.progress,
+            reuse_tree=self.reuse_tree,
+        )
+        if episode.out_of_time():
+            trial.say("the deadline passed while the trial was set up")
+            return trial, None
+        return trial, self.start(trial)
 
 
 class MethodSettings(Protocol):

@@ -20,7 +20,7 @@ three times cheaper.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 import pybullet as p
 
@@ -52,10 +52,16 @@ class Sim:
     from a State with :meth:`set_state`. Counters of collision checks are kept for benchmarks.
     """
 
-    def __init__(self, problem: ProblemSpec) -> None:
+    def __init__(self, problem: ProblemSpec, stop: Callable[[], bool] | None = None) -> None:
+        """The scene of ``problem``; ``stop`` (see :func:`build_bodies`) may cut building short
+        with :exc:`~stalm.world.scene_build.SceneAbandoned`, the client then closed."""
         self.problem = problem
         self.client = p.connect(p.DIRECT)
-        self.bodies = build_bodies(self.client, problem)
+        try:
+            self.bodies = build_bodies(self.client, problem, stop)
+        except BaseException:
+            p.disconnect(self.client)
+            raise
         self.collision_checks = 0
         self._held: Grasp | None = None
         self._held_yaw_offset = 0.0

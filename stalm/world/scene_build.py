@@ -10,7 +10,7 @@ simulator of one problem.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import pybullet as p
@@ -21,6 +21,11 @@ from stalm.world import robot as robot_model
 from stalm.world.spec import GRILL_HANDLE_REACH, DoorSpec, ObjectSpec, ProblemSpec, RegionSpec
 
 FINGER_JOINTS = (9, 10)
+
+
+class SceneAbandoned(Exception):
+    """Building a scene was given up because its ``stop`` said so (a trial's deadline passed
+    while a scene of thousands of objects was loading)."""
 
 
 @dataclass
@@ -45,8 +50,13 @@ class Bodies:
         return f"body{body}"
 
 
-def build_bodies(client: int, problem: ProblemSpec) -> Bodies:
-    """Create every body of ``problem`` in ``client``, in a fixed order (the ids follow it)."""
+def build_bodies(
+    client: int, problem: ProblemSpec, stop: Callable[[], bool] | None = None
+) -> Bodies:
+    """Create every body of ``problem`` in ``client``, in a fixed order (the ids follow it).
+
+    ``stop`` is asked before each object: once it says so, :exc:`SceneAbandoned` is raised
+    (on a scene of thousands of objects, building alone can outlast a trial's budget)."""
     c = client
     bodies = Bodies()
     p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
@@ -69,6 +79,8 @@ def build_bodies(client: int, problem: ProblemSpec) -> Bodies:
     for door in problem.doors:
         bodies.doors[door.name] = _door_body(c, door)
     for obj in problem.objects:
+        if stop is not None and stop():
+            raise SceneAbandoned(f"gave up building the scene at object {len(bodies.objects)}")
         bodies.objects[obj.name] = _object_body(c, obj)
     _build_robot(c, bodies)
     return bodies

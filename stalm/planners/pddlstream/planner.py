@@ -90,6 +90,7 @@ class PDDLStreamPlanner:
         rng = np.random.default_rng(seed)
         state = problem.initial_state
         adaptive = adaptive_for(domain, problem, self.settings)
+        setup_s = time.monotonic() - start_time  # the scene, the domain and the algorithm's state
         knowledge = adaptive.knowledge
         streams = adaptive.streams
         execution_s = 0.0
@@ -159,6 +160,7 @@ class PDDLStreamPlanner:
                 tree_search=adaptive.fd_seconds,
                 execution=execution_s,
                 total=total,
+                setup=setup_s,
             ),
             counters=Counters(
                 transitions=domain.counters.transitions,

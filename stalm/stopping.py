@@ -1,0 +1,107 @@
+"""Stopping on the signals a scheduler sends: TERM, INT and HUP end stalm one way.
+
+Python dies at once on SIGTERM and SIGHUP: no ``finally`` runs, so a Fast Downward child runs
+on as an orphan, ``stalm-fd-*`` and trial folders stay in the temporary folder, and an
+experiment's workers go on without their caller. SIGINT's KeyboardInterrupt does unwind, but
+``subprocess.run`` gives a killed child only a quarter second to be waited for, and the CLI
+framework turns it into "Aborted!". :func:`stopping_on_signals` turns all three into one
+exception, :class:`Stopped`, raised where the main thread is; unwinding then runs every
+clean-up on the way (``subprocess.run`` kills its child and waits for it, temporary folders
+are removed, a worker pool is terminated and joined), and the command exits with 128 + the
+signal's number. After the first signal the next ones are ignored, so that a scheduler's
+second TERM or an impatient second Ctrl-C cannot cut the clean-up short (it is bounded: a
+worker that does not stop is killed).
+
+:func:`end_helper_processes` stops multiprocessing's resource tracker, which Python 3.11 leaves
+to end on its own after stalm has exited: an orphan, which an init that reaps nothing (some
+containers) keeps as a zombie. Like :mod:`stalm.errors`, this module sits below every layer.
+"""
+
+from __future__ import annotations
+
+import gc
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from types import FrameType
+
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
+"""What a scheduler, Ctrl-C, a closed terminal or ``kill PID`` sends to end a process."""
+
+
+class Stopped(BaseException):
+    """A TERM, INT or HUP signal arrived. Not an :class:`Exception`, so the ``except Exception``
+    that keeps a planner's bug as a trial's error record does not keep it too."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(f"stopped by {signal.Signals(signum).name}")
+        self.signum = signum
+
+    @property
+    def exit_code(self) -> int:
+        """The shell's convention for a command ended by a signal."""
+        return 128 + self.signum
+
+
+def _stop(signum: int, frame: FrameType | None) -> None:
+    for number in STOP_SIGNALS:
+        signal.signal(number, signal.SIG_IGN)
+    raise Stopped(signum)
+
+
+@contextmanager
+def stopping_on_signals() -> Iterator[None]:
+    """Raise :class:`Stopped` on TERM, INT or HUP inside the block, then restore the handlers that
+    were there (the block may be one command run inside a longer-lived process, as tests do).
+    Only the main thread can have signal handlers; elsewhere this does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = {number: signal.getsignal(number) for number in STOP_SIGNALS}
+    install()
+    try:
+        yield
+    finally:
+        for number, handler in before.items():
+            signal.signal(number, handler)
+
+
+def install() -> None:
+    """Raise :class:`Stopped` in this process's main thread on TERM, INT or HUP from now on.
+
+    A signal the process was started ignoring stays ignored: ``nohup`` ignores HUP and a
+    shell's background job INT, so that closing the terminal or a Ctrl-C there does not end it
+    (Python itself leaves an ignored SIGINT alone for the same reason)."""
+    for number in STOP_SIGNALS:
+        if signal.getsignal(number) is not signal.SIG_IGN:
+            signal.signal(number, _stop)
+
+
+def stop_message(stop: BaseException) -> str:
+    """``stopped by SIGTERM``: what ended a run (a :class:`Stopped` or a KeyboardInterrupt)."""
+    return str(stop) if isinstance(stop, Stopped) else "stopped by SIGINT"
+
+
+def stop_code(stop: BaseException) -> int:
+    """The exit code of a run ended by ``stop`` (a :class:`Stopped` or a KeyboardInterrupt)."""
+    return stop.exit_code if isinstance(stop, Stopped) else 128 + signal.SIGINT
+
+
+def end_helper_processes() -> None:
+    """Stop multiprocessing's resource tracker if this process started one, and wait for it.
+
+    Called last, when no pool is left: the pool's semaphores tell the tracker they are gone as
+    they are collected (hence ``gc.collect`` first), and one told after the tracker stopped
+    would start another; while a child process of multiprocessing lives (it holds the tracker
+    open) nothing is done. ``_stop`` is the standard library's own (private) way to end it."""
+    import multiprocessing
+    from multiprocessing import resource_tracker
+
+    gc.collect()
+    if multiprocessing.active_children():
+        return  # they hold the tracker open: stopping it would wait for them
+    tracker = getattr(resource_tracker, "_resource_tracker", None)
+    stop = getattr(tracker, "_stop", None)
+    if stop is not None and getattr(tracker, "_pid", None) is not None:
+        stop()
