@@ -183,6 +183,14 @@ class OpenAICompatibleBackend:
         return self._base_url or OPENAI_DEFAULT_BASE_URL
 
     @property
+    def identity(self) -> str:
+        """Whose replies these are: the provider and the server, as the reply cache keys them
+        (:mod:`stalm.llm.backends.identity`)."""
+        from stalm.llm.backends.identity import SERVER_PROVIDER, server_url
+
+        return f"{SERVER_PROVIDER} {server_url(self.url)}"
+
+    @property
     def constraint_style(self) -> ConstraintStyle:
         return self._constraint_style
 
