@@ -15,25 +15,18 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from urllib.parse import urlsplit
 
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMBackend, LLMRequest, LLMResponse
+from stalm.llm.backends.openai_compatible import (
+    BASE_URL_ENV,
+    MODEL_ENV,
+    OPENAI_DEFAULT_BASE_URL,
+    SERVER_PROVIDER,
+    server_url,
+)
 
-SERVER_PROVIDER = "openai-compatible"
 EMBEDDED_PROVIDER = "embedded"
-
-
-def server_url(url: str) -> str:
-    """``url`` in the form that names one server: scheme and host in lower case, the port
-    only when it is not the scheme's default, no trailing slash."""
-    parts = urlsplit(url.strip())
-    scheme, host = parts.scheme.lower(), (parts.hostname or "").lower()
-    default = {"http": 80, "https": 443}.get(scheme)
-    port = f":{parts.port}" if parts.port is not None and parts.port != default else ""
-    if ":" in host:  # an IPv6 literal keeps its brackets
-        host = f"[{host}]"
-    return f"{scheme}://{host}{port}{parts.path.rstrip('/')}"
 
 
 @dataclass(frozen=True)
@@ -72,12 +65,6 @@ def spec_identity(spec: str | None) -> BackendIdentity:
     parsed = parsed_spec(spec)
     if parsed.embedded is not None:
         return BackendIdentity(EMBEDDED_PROVIDER, None, embedded_model_name(parsed.embedded))
-    from stalm.llm.backends.openai_compatible import (
-        BASE_URL_ENV,
-        MODEL_ENV,
-        OPENAI_DEFAULT_BASE_URL,
-    )
-
     env_url = os.environ.get(BASE_URL_ENV) or os.environ.get("OPENAI_BASE_URL")
     url = parsed.base_url or env_url or OPENAI_DEFAULT_BASE_URL
     model = parsed.model or os.environ.get(MODEL_ENV) or None
