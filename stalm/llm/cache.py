@@ -145,7 +145,7 @@ class CachedBackend:
                 f"reply cache {self._cache.path} lacks {len(missing)} of {request.n} samples "
                 f"for model {model!r} of {identity} (prompt "
                 f"{prompt_digest(request.system, request.user)[:12]}, seed {request.seed}); "
-                "replay mode runs no model"
+                "replay mode runs no model (name one with --llm and --cache use to ask it)"
             )
         new_samples = []
         for start, length in _contiguous_runs(missing):

@@ -88,3 +88,18 @@ def test_old_entries_are_served_with_a_notice_only_when_the_user_named_the_backe
     with pytest.raises(StalmError, match="lacks 1 of 1"):
         from_record.complete(single)
     assert scripted_server.paths == [], "replay asks no server"
+
+
+def test_a_solve_replay_says_whose_replies_it_replays(
+    monkeypatch, capsys, scripted_server: ScriptedHTTPServerDouble
+) -> None:
+    from tests.cli_runner import run_cli
+
+    spec = f"{scripted_server.base_url}#{MODEL}"
+    args = ["solve", "P2", "--proposer", "llm", "--llm", spec, "--cache", "replay"]
+    short = ["--sims", "2", "--set", "budget.horizon=1", "--set", "execution.rule=best_q"]
+    assert run_cli(monkeypatch, *args, *short) == 2, "an empty cache: the replay misses"
+    err = capsys.readouterr().err
+    assert f"replaying the replies of model {MODEL!r} on {scripted_server.base_url}" in err
+    assert f"of openai-compatible {scripted_server.base_url}" in err, "the miss says whose"
+    assert scripted_server.paths == []
