@@ -1,4 +1,4 @@
-"""``stalm rerun``: run a trial again from its result record alone.
+"""``stalm rerun``: run a trial again from its result record.
 
 A record (``stalm solve --json``, or one line of an experiment's results file) keeps the
 problem's name and hash, the planner, the seed and the whole resolved settings tree. This
@@ -8,11 +8,15 @@ not cut short, it is, action for action; on the machine that made the record num
 number, on another one with its continuous values within
 :data:`~stalm.geometry.tolerance.CONTINUOUS_TOLERANCE` (CPUs round the last bits of IK and
 trigonometry differently), which still counts as the record's plan.
+
+What a record names that reaches beyond the run -- the model's server, the reply-cache file --
+is not taken from it: :mod:`stalm.cli.rerun_model` says what is used instead.
 """
 
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -83,12 +87,33 @@ def rerun_command(
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Write the new result as JSON.")
     ] = None,
+    llm: Annotated[
+        str | None,
+        typer.Option(
+            help="The model to ask (as stalm solve --llm; default $STALM_LLM). Without one, "
+            "the record's model is not contacted: its replies come from the reply cache."
+        ),
+    ] = None,
+    cache: Annotated[
+        str | None,
+        typer.Option(help="Reply cache mode: use (default), refresh, off or replay."),
+    ] = None,
+    cache_file: Annotated[
+        Path | None,
+        typer.Option(
+            "--cache-file",
+            help="The reply cache's SQLite file (default: replies.sqlite under "
+            "$STALM_CACHE_DIR); a record's own is never used.",
+        ),
+    ] = None,
 ) -> None:
     """Run a recorded trial again and check that it gives the recorded plan.
 
-    The problem, planner, seed and settings all come from the record; exit 1 if the plan
-    differs."""
-    from stalm.planners.registry import planner_entry, resolve
+    The problem, planner, seed and settings come from the record, but not the model nor the
+    reply-cache file: the model is the one you name (--llm, $STALM_LLM), else the record's is
+    replayed from the reply cache without contacting it. Exit 1 if the plan differs."""
+    from stalm.cli.rerun_model import model_line, rerun_llm
+    from stalm.planners.registry import asks_model, planner_entry, resolve
     from stalm.planners.settings_io import from_mapping
 
     if json_out is not None:
@@ -100,6 +125,9 @@ def rerun_command(
             "kept one), so it cannot be re-run from the record alone"
         )
     settings = from_mapping(record["settings"], f"{record_file}: settings")
+    recorded_llm = settings.llm
+    llm_section, model_source = rerun_llm(recorded_llm, llm, cache, cache_file)
+    settings = replace(settings, llm=llm_section)
     entry = planner_entry(str(record.get("planner", "")))
     seed = record.get("seed")
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
@@ -118,7 +146,11 @@ def rerun_command(
         f"{shown(record_file)}",
         highlight=False,
     )
-    note_embedded(entry.name, resolved)
+    if asks_model(entry.name, resolved):
+        line = model_line(resolved.llm, model_source, recorded_llm)
+        console.print(shown(line), highlight=False, soft_wrap=True)
+        if not resolved.llm.from_record:
+            note_embedded(entry.name, resolved)
     result, fallback = solve_and_report(entry.name, resolved, loaded, seed, json_out)
     now = json.loads(json.dumps(result.to_json()["plan"]))
     recorded = record.get("plan") or []

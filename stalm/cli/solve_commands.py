@@ -11,7 +11,14 @@ from rich.table import Table
 from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
 from stalm.cli.settings_options import SET_HELP, SETTINGS_HELP, command_settings, given
-from stalm.cli.solve_output import console, note_embedded, out, solve_and_report, write_pictures
+from stalm.cli.solve_output import (
+    console,
+    note_embedded,
+    note_replay,
+    out,
+    solve_and_report,
+    write_pictures,
+)
 from stalm.errors import StalmError
 from stalm.files import read_json_file
 from stalm.world.problem import load_problem
@@ -198,6 +205,7 @@ def solve_command(
     with console.status(f"checking {shown(loaded.name)}'s scene..."):
         check_problem_geometry(loaded)  # before the clock starts: a bad file fails at once
     note_embedded(entry.name, resolved)
+    note_replay(entry.name, resolved)
     result, fallback = solve_and_report(entry.name, resolved, loaded, seed, json_out)
     write_pictures(loaded, result, resolved, gif, html)
     if fallback is not None:

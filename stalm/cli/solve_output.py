@@ -106,6 +106,25 @@ def note_embedded(planner: str, settings: RunSettings) -> None:
         console.print(f"[yellow]note:[/] {shown(backend.description)}", highlight=False)
 
 
+def note_replay(planner: str, settings: RunSettings) -> None:
+    """Say whose replies a replay serves (a model name alone does not tell) and from where."""
+    from stalm.llm.backends.identity import spec_identity
+    from stalm.llm.cache_file import default_cache_path
+    from stalm.planners.registry import asks_model
+
+    llm = settings.llm
+    if llm.cache != "replay" or llm.from_record or not asks_model(planner, settings):
+        return
+    whose = spec_identity(llm.backend).describe()  # builds nothing, contacts nothing
+    where = llm.cache_file or default_cache_path()
+    console.print(
+        f"[yellow]note:[/] replaying the replies of {shown(whose)} from {shown(where)}; "
+        "no model is run",
+        highlight=False,
+        soft_wrap=True,
+    )
+
+
 def solve_and_report(
     planner_name: str,
     settings: RunSettings,

@@ -88,7 +88,7 @@ def _sha(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-KEYLESS = ("llm.cache", "llm.cache_file")
+KEYLESS = ("llm.cache", "llm.cache_file", "llm.from_record")
 """Where and how replies are fetched does not change what they are: not in the key."""
 
 

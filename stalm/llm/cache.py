@@ -5,13 +5,20 @@ their samples are not reproducible across providers or versions. Caching every r
 *everything that determines its distribution* makes reruns cheap and lets a result be replayed
 exactly from a cache file someone sends along.
 
-One entry is one sample. Its key hashes the backend name, the model, the full system and user
-prompt, the sampling settings (temperature, max_tokens, seed, constraint fingerprint) and the
-sample's index in the batch. Keying by index rather than by batch means asking for 5 samples
-after 3 were cached runs the model for the 2 missing ones only. The seed is part of the key on
-purpose: trials with different seeds must get different draws, not one shared cached batch.
-Nothing machine-specific (server URL, paths, user) enters the key, so a file copied to another
-machine hits there too.
+One entry is one sample. Its key hashes the backend's identity (its provider and server: a
+server that calls its model ``gpt-4-turbo-2024-04-09`` is not OpenAI), the model, the full
+system and user prompt, the sampling settings (temperature, max_tokens, seed, constraint
+fingerprint) and the sample's index in the batch. Keying by index rather than by batch means
+asking for 5 samples after 3 were cached runs the model for the 2 missing ones only. The seed
+is part of the key on purpose: trials with different seeds must get different draws, not one
+shared cached batch.
+Nothing else machine-specific (paths, user) enters the key, so a file copied to another machine
+hits there too for the same server.
+
+Entries an older stalm wrote were keyed by the backend's name (``openai-compatible``) and the
+model only, so they do not say which server answered. They are served only to a backend the
+user named (``legacy=True``, every command but a rerun that replays the model its record
+names), each time with a one-line notice naming the backend they are served as.
 
 The file, its keys and its schema are :mod:`stalm.llm.cache_file`; this module is the policy:
 the modes, which samples to ask the model for, and what a served reply counts as having cost.
@@ -29,12 +36,22 @@ call's time, an over-count).
 from __future__ import annotations
 
 import dataclasses
+import sys
 import time
+from collections.abc import Callable
 from typing import Literal, cast, get_args
 
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMBackend, LLMReply, LLMRequest, LLMResponse
-from stalm.llm.cache_file import CachedSample, ReplyCache, prompt_digest, sample_key
+from stalm.llm.backends.identity import identity_of
+from stalm.llm.cache_file import (
+    CachedSample,
+    ReplyCache,
+    StoredReply,
+    legacy_sample_key,
+    prompt_digest,
+    sample_key,
+)
 
 CacheMode = Literal["use", "refresh", "off", "replay"]
 """``use``: read hits, run and store misses. ``refresh``: ignore stored replies, run the model
@@ -62,6 +79,9 @@ class CachedBackend:
     result would have cost); ``from_cache`` tells that nothing was spent now, and
     ``cached_seconds`` what the served replies took when they were made. Each call made now
     is timed, and every reply it returned is stored with its share of that time.
+
+    ``legacy`` serves entries an older stalm wrote without a server (see the module
+    docstring), saying so once through ``notify`` (default: a line on stderr).
     """
 
     def __init__(
@@ -69,6 +89,9 @@ class CachedBackend:
         inner: LLMBackend,
         cache: ReplyCache | None = None,
         mode: CacheMode | str = "use",
+        *,
+        legacy: bool = True,
+        notify: Callable[[str], None] | None = None,
     ) -> None:
         self._inner = inner
         self._mode = check_cache_mode(mode)
@@ -76,6 +99,13 @@ class CachedBackend:
             # replay only reads: a cache nobody may write still replays
             cache = ReplyCache(read_only=self._mode == "replay")
         self._cache = cache
+        self._legacy = legacy
+        self._notify = notify or _to_stderr
+        self._legacy_said = False
+
+    @property
+    def identity(self) -> str:
+        return identity_of(self._inner)
 
     @property
     def name(self) -> str:
@@ -104,19 +134,21 @@ class CachedBackend:
     def complete(self, request: LLMRequest) -> LLMResponse:
         if self._mode == "off" or self._cache is None:
             return self._inner.complete(request)
-        backend, model = self._inner.name, self._inner.model
-        keys = [sample_key(backend, model, request, i) for i in range(request.n)]
+        backend, model, identity = self._inner.name, self._inner.model, self.identity
+        keys = [sample_key(identity, model, request, i) for i in range(request.n)]
         stored = self._cache.get_stored(keys) if self._mode in ("use", "replay") else {}
         hits = [stored.get(key) for key in keys]
+        if self._legacy and self._mode in ("use", "replay") and None in hits:
+            hits = self._with_legacy(hits, request)
         replies: list[LLMReply | None] = [hit.reply if hit else None for hit in hits]
         cached_seconds = sum(hit.call_seconds for hit in hits if hit is not None)
         missing = [i for i, reply in enumerate(replies) if reply is None]
         if missing and self._mode == "replay":
             raise StalmError(
                 f"reply cache {self._cache.path} lacks {len(missing)} of {request.n} samples "
-                f"for model {model!r} on backend {backend!r} (prompt "
+                f"for model {model!r} of {identity} (prompt "
                 f"{prompt_digest(request.system, request.user)[:12]}, seed {request.seed}); "
-                "replay mode runs no model"
+                "replay mode runs no model (name one with --llm and --cache use to ask it)"
             )
         new_samples = []
         for start, length in _contiguous_runs(missing):
@@ -139,7 +171,9 @@ class CachedBackend:
                 replies[index] = reply
                 if reply.finish_reason != "deadline":  # a cut reply is not the model's answer
                     new_samples.append(
-                        CachedSample(keys[index], backend, model, request, index, reply, share)
+                        CachedSample(
+                            keys[index], backend, model, request, index, reply, share, identity
+                        )
                     )
             if cut_short:
                 break
@@ -152,6 +186,30 @@ class CachedBackend:
             cached_replies=request.n - len(missing),
             cached_seconds=cached_seconds,
         )
+
+    def _with_legacy(
+        self, hits: list[StoredReply | None], request: LLMRequest
+    ) -> list[StoredReply | None]:
+        """``hits`` with the misses an older stalm's entry answers (keyed by the backend's
+        name, not its server), said once."""
+        assert self._cache is not None
+        name, model = self._inner.name, self._inner.model
+        keys = {i: legacy_sample_key(name, model, request, i) for i, h in enumerate(hits) if not h}
+        found = self._cache.get_stored(keys.values())
+        if not found:
+            return hits
+        if not self._legacy_said:
+            self._legacy_said = True
+            self._notify(
+                f"replies cached by an older stalm, which did not record which server made "
+                f"them, are served as model {model!r} of {self.identity}'s (from "
+                f"{self._cache.path}; --cache refresh asks the model again)"
+            )
+        return [found.get(keys[i]) if hit is None else hit for i, hit in enumerate(hits)]
+
+
+def _to_stderr(message: str) -> None:
+    print(f"note: {message}", file=sys.stderr)
 
 
 def _contiguous_runs(indices: list[int]) -> list[tuple[int, int]]:

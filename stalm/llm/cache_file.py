@@ -1,19 +1,22 @@
 """The reply cache's SQLite file: what a key is made of, the schema, reads, writes and merges.
 
 The store is one SQLite file in WAL mode, opened per operation with short transactions, which
-is safe for several processes (parallel trials) sharing it. A key hashes everything that
-determines a sample's distribution and nothing machine-specific, so a file copied to another
-machine hits there too (:func:`sample_key`; :mod:`stalm.llm.cache` says why each part is in
-it). Kept apart from that policy module (the modes, which samples to ask the model for, what a
+is safe for several processes (parallel trials) sharing it; its keys are
+:mod:`stalm.llm.cache_keys`' (re-exported here), and rows keyed the older way have no
+``identity``.
+
+The file carries stalm's SQLite ``application_id``. A path may come from a user who mistyped
+it: an existing file that is neither marked so nor holds only stalm's own tables (another
+program's database, a file that is not SQLite) is refused before anything touches it.
+
+Kept apart from the policy module (the modes, which samples to ask the model for, what a
 served reply counts as having cost) because this is the file format other people receive: a
-cache file written by an older stalm (without ``call_seconds``) still reads, merges and
-upgrades in place.
+cache file written by an older stalm (without ``call_seconds`` or ``identity``) still reads,
+merges and upgrades in place.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 import os
 import sqlite3
 import time
@@ -26,9 +29,24 @@ from pathlib import Path
 from stalm.cache_dir import stalm_cache_dir
 from stalm.errors import StalmError
 from stalm.llm.backends.base import LLMReply, LLMRequest
+from stalm.llm.cache_keys import KEY_VERSION, legacy_sample_key, prompt_digest, sample_key
+
+__all__ = [
+    "CACHE_FILE_NAME",
+    "STALM_APPLICATION_ID",
+    "CachedSample",
+    "ReplyCache",
+    "check_reply_cache_file",
+    "default_cache_path",
+    "legacy_sample_key",
+    "prompt_digest",
+    "sample_key",
+]
 
 CACHE_FILE_NAME = "replies.sqlite"
-_KEY_VERSION = 1
+STALM_APPLICATION_ID = 0x53544C4D
+"""``PRAGMA application_id`` of a stalm reply cache ('STLM')."""
+_OWN_TABLES = frozenset({"meta", "prompts", "replies"})
 _BUSY_TIMEOUT_S = 30.0
 
 _SCHEMA = """
@@ -54,7 +72,8 @@ CREATE TABLE IF NOT EXISTS replies (
     latency_s REAL NOT NULL,
     finish_reason TEXT,
     created_at REAL NOT NULL,
-    call_seconds REAL
+    call_seconds REAL,
+    identity TEXT
 );
 """
 _COLUMNS_V1 = (
@@ -69,32 +88,32 @@ def default_cache_path() -> Path:
     return stalm_cache_dir() / CACHE_FILE_NAME
 
 
-def prompt_digest(system: str, user: str) -> str:
-    """The digest that names a prompt in the cache's ``prompts`` table."""
-    return hashlib.sha256(json.dumps([system, user]).encode("utf-8")).hexdigest()
+def check_reply_cache_file(path: Path) -> None:
+    """A StalmError if ``path`` exists and is not a stalm reply cache; reads only.
 
-
-def sample_key(backend: str, model: str, request: LLMRequest, index: int) -> str:
-    """The cache key of sample ``index`` of ``request`` sent to ``model`` on ``backend``.
-
-    ``request.n`` is deliberately absent: sample 3 of a batch of 5 is the same draw as
-    sample 3 of a batch of 4.
+    A missing or empty file, one marked with :data:`STALM_APPLICATION_ID`, and an unmarked
+    one holding no tables but stalm's (written before the marker) are stalm's to use.
     """
-    fingerprint = request.constraint.fingerprint if request.constraint else None
-    material = [
-        _KEY_VERSION,
-        backend,
-        model,
-        request.system,
-        request.user,
-        request.temperature,
-        request.max_tokens,
-        request.seed,
-        fingerprint,
-        index,
-    ]
-    encoded = json.dumps(material, ensure_ascii=False, separators=(",", ":"))
-    return hashlib.sha256(encoded.encode("utf-8")).hexdigest()
+    if not path.exists():
+        return
+    refused = f"{path} is not a stalm reply cache"
+    if not path.is_file():
+        raise StalmError(f"{refused} (not a regular file); name another file")
+    if path.stat().st_size == 0:
+        return
+    try:
+        uri = f"{path.resolve().as_uri()}?mode=ro"
+        with closing(sqlite3.connect(uri, uri=True, timeout=_BUSY_TIMEOUT_S)) as conn:
+            (application_id,) = conn.execute("PRAGMA application_id").fetchone()
+            rows = conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")
+            tables = {row[0] for row in rows if not row[0].startswith("sqlite_")}
+    except (OSError, sqlite3.Error):
+        raise StalmError(f"{refused} (not an SQLite database); name another file") from None
+    if application_id == STALM_APPLICATION_ID:
+        return
+    if application_id == 0 and tables <= _OWN_TABLES:
+        return
+    raise StalmError(f"{refused} (it holds another program's tables); stalm leaves it alone")
 
 
 @dataclass(frozen=True)
@@ -112,6 +131,8 @@ class CachedSample:
     index: int
     reply: LLMReply
     call_seconds: float | None = None
+    identity: str | None = None
+    """Whose backend made the reply (None: from an older stalm, which did not say)."""
 
 
 @dataclass(frozen=True)
@@ -141,15 +162,17 @@ class ReplyCache:
         if read_only:
             self._open_read_only()
             return
+        check_reply_cache_file(self._path)  # another program's file is never touched
         try:
             self._path.parent.mkdir(parents=True, exist_ok=True)
             with self._connect() as conn:
+                conn.execute(f"PRAGMA application_id={STALM_APPLICATION_ID}")
                 conn.execute("PRAGMA journal_mode=WAL")
                 conn.executescript(_SCHEMA)
-                _add_call_seconds(conn)
+                _add_columns(conn)
                 conn.execute(
-                    "INSERT OR IGNORE INTO meta(name, value) VALUES ('key_version', ?)",
-                    (str(_KEY_VERSION),),
+                    "INSERT OR REPLACE INTO meta(name, value) VALUES ('key_version', ?)",
+                    (str(KEY_VERSION),),
                 )
         except (OSError, sqlite3.Error) as error:
             raise StalmError(f"cannot open the reply cache {self._path}: {error}") from error
@@ -162,7 +185,10 @@ class ReplyCache:
         which a read-only folder cannot hold; then the file is read as ``immutable`` (nobody
         can be writing it where nobody may write)."""
         if not self._path.is_file():
-            raise StalmError(f"no reply cache to replay at {self._path}")
+            raise StalmError(
+                f"no reply cache to replay at {self._path} (to ask a model instead, name it "
+                "with --llm and leave the cache mode at 'use')"
+            )
         base = "file:" + urllib.parse.quote(str(self._path.absolute()))
         failure: sqlite3.Error | None = None
         for query in ("?mode=ro", "?mode=ro&immutable=1"):
@@ -260,6 +286,7 @@ class ReplyCache:
                     reply.finish_reason,
                     now,
                     sample.call_seconds,
+                    sample.identity,
                 )
             )
         if not rows:
@@ -273,8 +300,8 @@ class ReplyCache:
                     list(prompts.values()),
                 )
                 conn.executemany(
-                    f"INSERT OR REPLACE INTO replies ({_COLUMNS_V1}, call_seconds) VALUES "
-                    "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    f"INSERT OR REPLACE INTO replies ({_COLUMNS_V1}, call_seconds, identity) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     rows,
                 )
         except sqlite3.Error as error:
@@ -299,10 +326,12 @@ class ReplyCache:
             with self._connect() as conn:
                 conn.execute("ATTACH DATABASE ? AS other", (str(source),))
                 conn.execute("INSERT OR IGNORE INTO prompts SELECT * FROM other.prompts")
-                # a file written before call_seconds existed lacks the column: it stays NULL
-                columns = _COLUMNS_V1
-                if "call_seconds" in _columns(conn, "other"):
-                    columns += ", call_seconds"
+                # a file written before call_seconds or identity existed lacks the column:
+                # it stays NULL
+                theirs = _columns(conn, "other")
+                columns = ", ".join(
+                    [_COLUMNS_V1, *(c for c in ("call_seconds", "identity") if c in theirs)]
+                )
                 conn.execute(
                     f"INSERT OR IGNORE INTO replies ({columns}) SELECT {columns} FROM other.replies"
                 )
@@ -313,6 +342,7 @@ class ReplyCache:
     def export(self, destination: str | os.PathLike[str]) -> Path:
         """Copy the cache into one consistent file (safe while others write) to send along."""
         target = Path(destination).expanduser()
+        check_reply_cache_file(target)  # a backup overwrites: never another program's file
         target.parent.mkdir(parents=True, exist_ok=True)
         try:
             with (
@@ -325,18 +355,19 @@ class ReplyCache:
         return target
 
 
-def _add_call_seconds(conn: sqlite3.Connection) -> None:
-    """Give a cache file written before ``call_seconds`` existed the column (NULL in old rows).
-
-    Another process may add it at the same moment; its "duplicate column" is no error.
-    """
-    if "call_seconds" in _columns(conn, "main"):
-        return
-    try:
-        conn.execute("ALTER TABLE replies ADD COLUMN call_seconds REAL")
-    except sqlite3.OperationalError as error:
-        if "duplicate column" not in str(error):
-            raise
+def _add_columns(conn: sqlite3.Connection) -> None:
+    """Give a cache file written before ``call_seconds`` or ``identity`` existed the column
+    (NULL in old rows). Another process may add it at the same moment; its "duplicate column"
+    is no error."""
+    present = _columns(conn, "main")
+    for column, kind in (("call_seconds", "REAL"), ("identity", "TEXT")):
+        if column in present:
+            continue
+        try:
+            conn.execute(f"ALTER TABLE replies ADD COLUMN {column} {kind}")
+        except sqlite3.OperationalError as error:
+            if "duplicate column" not in str(error):
+                raise
 
 
 def _columns(conn: sqlite3.Connection, schema: str) -> set[str]:

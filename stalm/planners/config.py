@@ -93,15 +93,20 @@ class PlannerConfig:
 
 
 def llm_backend(settings: RunSettings) -> LLMBackend:
-    """The configured backend behind the reply cache."""
+    """The configured backend behind the reply cache; for a backend a re-run record named
+    (``llm.from_record``), only its cached replies."""
     from stalm.llm.backends import make_backend
     from stalm.llm.cache import CachedBackend
     from stalm.llm.cache_file import ReplyCache
 
     llm = settings.llm
-    cache = None
-    if llm.cache_file is not None:
-        cache = ReplyCache(llm.cache_file, read_only=llm.cache == "replay")
+    replay = llm.cache == "replay" or llm.from_record  # replay only reads the file
+    cache = None if llm.cache_file is None else ReplyCache(llm.cache_file, read_only=replay)
+    if llm.from_record:  # a server only a record names is never asked (issue 30, item 1)
+        from stalm.llm.backends.identity import CacheOnlyBackend, spec_identity
+
+        replay_only = CacheOnlyBackend(spec_identity(llm.backend))
+        return CachedBackend(replay_only, cache, mode="replay", legacy=False)
     return CachedBackend(make_backend(llm.backend), cache, mode=llm.cache)
 
 

@@ -195,6 +195,10 @@ def resolve(name: str, settings: RunSettings, problem: Problem | None = None) ->
     default = None if os.environ.get(BASE_URL_ENV) else "embedded"
     backend = llm.backend or os.environ.get(SPEC_ENV) or default
     constrained = llm.constrained
+    if constrained is None and llm.from_record:  # a record's backend is never built
+        from stalm.llm.backends.identity import EMBEDDED_PROVIDER, spec_identity
+
+        constrained = spec_identity(backend).provider == EMBEDDED_PROVIDER
     if constrained is None:
         constrained = make_backend(backend).name == "embedded"  # loads no model
     return replace(resolved, llm=replace(llm, backend=backend, constrained=constrained))

@@ -239,6 +239,10 @@ class LlmSection:
     """Reply cache: use, refresh, off or replay (a miss is an error)."""
     cache_file: str | None = None
     """The reply cache's SQLite file; None: the default under $STALM_CACHE_DIR."""
+    from_record: bool = False
+    """The backend is the one a re-run record names, not one the user named: it is never
+    built nor contacted, and its replies come from the reply cache alone (``stalm rerun``
+    sets this; a record's own value is never taken)."""
 
     def __post_init__(self) -> None:
         if self.cache not in ("use", "refresh", "off", "replay"):

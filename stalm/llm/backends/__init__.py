@@ -27,6 +27,7 @@ Accepted spec strings (:data:`SPEC_HELP` is the same text, for ``--help``):
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 from stalm.errors import StalmError
@@ -68,31 +69,55 @@ def model_configured(spec: str | None = None) -> bool:
     return bool((spec or "").strip() or os.environ.get(SPEC_ENV) or os.environ.get(BASE_URL_ENV))
 
 
+@dataclass(frozen=True)
+class ParsedSpec:
+    """What a spec names: the embedded model (``embedded``), or a server's ``base_url`` (None:
+    ``$STALM_LLM_BASE_URL``, else OpenAI), ``model`` (None: ``$STALM_LLM_MODEL`` or the
+    server's first) and constraint ``style`` (None: ``$STALM_LLM_CONSTRAINT_STYLE``)."""
+
+    embedded: str | None = None
+    base_url: str | None = None
+    model: str | None = None
+    style: ConstraintStyle | None = None
+
+
+def parsed_spec(spec: str | None) -> ParsedSpec:
+    """The one reading of a spec (``$STALM_LLM`` when it is empty), shared by
+    :func:`make_backend` and :func:`~stalm.llm.backends.identity.spec_identity` so that the
+    identity a spec names is the identity of the backend it builds."""
+    if not spec:
+        spec = os.environ.get(SPEC_ENV) or ""
+    spec = spec.strip()
+    if not spec:
+        if os.environ.get(BASE_URL_ENV):
+            return ParsedSpec()
+        return ParsedSpec(embedded=DEFAULT_EMBEDDED_MODEL)
+    kind, _, rest = spec.partition(":")
+    if spec.startswith(("http://", "https://")):
+        url, _, model = spec.partition("#")
+        return ParsedSpec(base_url=url, model=model or None)
+    if kind == "embedded":
+        return ParsedSpec(embedded=rest or DEFAULT_EMBEDDED_MODEL)
+    if kind == "openai":
+        return ParsedSpec(model=rest or None)
+    if kind in LOCAL_SERVERS:
+        url, style = LOCAL_SERVERS[kind]
+        return ParsedSpec(base_url=url, model=rest or None, style=style)
+    raise StalmError(f"unknown --llm spec {spec!r}; expected {SPEC_HELP}")
+
+
 def make_backend(spec: str | None = None, *, cache_dir: Path | None = None) -> LLMBackend:
     """The backend a ``--llm`` spec string names (see the module docstring for the forms).
 
     No network or model loading happens here; the first request does that, and raises a
     :class:`StalmError` naming the server or file if it fails.
     """
-    if not spec:
-        spec = os.environ.get(SPEC_ENV) or ""
-    spec = spec.strip()
-    if not spec:
-        if os.environ.get(BASE_URL_ENV):
-            return OpenAICompatibleBackend()
-        return EmbeddedBackend(DEFAULT_EMBEDDED_MODEL, cache_dir=cache_dir)
-    kind, _, rest = spec.partition(":")
-    if spec.startswith(("http://", "https://")):
-        url, _, model = spec.partition("#")
-        return OpenAICompatibleBackend(model=model or None, base_url=url)
-    if kind == "embedded":
-        return EmbeddedBackend(rest or DEFAULT_EMBEDDED_MODEL, cache_dir=cache_dir)
-    if kind == "openai":
-        return OpenAICompatibleBackend(model=rest or None)
-    if kind in LOCAL_SERVERS:
-        url, style = LOCAL_SERVERS[kind]
-        return OpenAICompatibleBackend(model=rest or None, base_url=url, constraint_style=style)
-    raise StalmError(f"unknown --llm spec {spec!r}; expected {SPEC_HELP}")
+    parsed = parsed_spec(spec)
+    if parsed.embedded is not None:
+        return EmbeddedBackend(parsed.embedded, cache_dir=cache_dir)
+    return OpenAICompatibleBackend(
+        model=parsed.model, base_url=parsed.base_url, constraint_style=parsed.style
+    )
 
 
 __all__ = [

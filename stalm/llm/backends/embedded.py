@@ -123,6 +123,12 @@ class EmbeddedBackend:
         return self._model_name
 
     @property
+    def identity(self) -> str:
+        """The reply cache's name for this provider: the model (its file's or package's
+        name) tells embedded models apart, no server is involved."""
+        return "embedded"
+
+    @property
     def description(self) -> str:
         if self._info is None:
             return (

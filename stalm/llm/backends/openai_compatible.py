@@ -70,6 +70,22 @@ DISCOVERY_TIMEOUT_S = 15.0
 """Longest wait for a server's model list: it is asked outside any trial's deadline."""
 
 
+SERVER_PROVIDER = "openai-compatible"
+"""The provider part of a server's identity (:mod:`stalm.llm.backends.identity`)."""
+
+
+def server_url(url: str) -> str:
+    """``url`` in the form that names one server: scheme and host in lower case, the port
+    only when it is not the scheme's default, no trailing slash (the reply cache keys by it)."""
+    parts = urlsplit(url.strip())
+    scheme, host = parts.scheme.lower(), (parts.hostname or "").lower()
+    default = {"http": 80, "https": 443}.get(scheme)
+    port = f":{parts.port}" if parts.port is not None and parts.port != default else ""
+    if ":" in host:  # an IPv6 literal keeps its brackets
+        host = f"[{host}]"
+    return f"{scheme}://{host}{port}{parts.path.rstrip('/')}"
+
+
 def _is_openai_api(url: str) -> bool:
     """True only for OpenAI's own API over HTTPS (not a look-alike host, not plain HTTP)."""
     parts = urlsplit(url)
@@ -176,11 +192,17 @@ class OpenAICompatibleBackend:
 
     @property
     def name(self) -> str:
-        return "openai-compatible"
+        return SERVER_PROVIDER
 
     @property
     def url(self) -> str:
         return self._base_url or OPENAI_DEFAULT_BASE_URL
+
+    @property
+    def identity(self) -> str:
+        """Whose replies these are: the provider and the server, as the reply cache keys them
+        (:mod:`stalm.llm.backends.identity`)."""
+        return f"{SERVER_PROVIDER} {server_url(self.url)}"
 
     @property
     def constraint_style(self) -> ConstraintStyle:
