@@ -1,5 +1,5 @@
-"""Property tests: generated problem files, replies, result lines, state files and plan steps
-thrown at the loaders and the parser (issue 16).
+"""Property tests: generated problem files, settings files, replies, result lines, state files
+and plan steps thrown at the loaders and the parser (issues 16 and 30).
 
 Whatever the input, each either gives a valid value or raises one clean
 :class:`~stalm.errors.StalmError`: no other exception escapes, and each call ends in bounded
@@ -22,6 +22,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stalm.errors import StalmError
+from stalm.planners.settings import RunSettings
+from stalm.planners.settings_io import from_mapping, to_dict, with_file
 from stalm.world.problem import Problem, load_problem
 
 FAST = settings(
@@ -145,6 +147,64 @@ def _load_problem_or_stalm_error(path: Path) -> None:
     assert isinstance(problem, Problem)
     assert problem.initial_state.object_names
     assert problem.goal and len(problem.content_hash) == 16
+
+
+# ---------------------------------------------------------------------------------------------
+# settings files (``--settings``): the problem files' guards (issue 30, item 9)
+
+SETTINGS_DATA = to_dict(RunSettings())
+
+
+@FAST
+@given(data=mutated(SETTINGS_DATA))
+def test_mutated_settings_files(tmp_path_factory: pytest.TempPathFactory, data: Any) -> None:
+    path = tmp_path_factory.mktemp("settings") / "s.yaml"
+    try:
+        path.write_text(yaml.safe_dump(data, allow_unicode=True))
+    except yaml.YAMLError:
+        return
+    _settings_or_stalm_error(path)
+
+
+@FAST
+@given(
+    raw=st.one_of(
+        st.binary(max_size=300),
+        st.text(max_size=300),
+        st.sampled_from(
+            [
+                "search: &x {c: 50}\nexecution: *x\n",
+                "search: &a [*a]\n",
+                "".join(
+                    f"l{i}: &l{i} [" + ", ".join([f"*l{i - 1}"] * 9) + "]\n" for i in range(1, 12)
+                ).replace("*l0", "0"),
+                "!!python/object:os.system {}\n",
+                _deep(5000),
+                "search: {c: .nan}\n",
+                "budget: {time_budget_s: 1e999}\n",
+                "proposer: {noise: {rate: [1, 2]}}\n",
+            ]
+        ),
+    )
+)
+def test_raw_settings_files(tmp_path_factory: pytest.TempPathFactory, raw: bytes | str) -> None:
+    path = tmp_path_factory.mktemp("settings") / "s.yaml"
+    if isinstance(raw, str):
+        path.write_text(raw, encoding="utf-8", errors="surrogatepass")
+    else:
+        path.write_bytes(raw)
+    _settings_or_stalm_error(path)
+
+
+def _settings_or_stalm_error(path: Path) -> None:
+    try:
+        loaded = with_file(RunSettings(), path)
+    except StalmError as error:
+        assert str(error) and "\n" not in str(error).strip(), "one line"
+        return
+    # settings that load are a whole tree that writes back to what it read
+    assert isinstance(loaded, RunSettings)
+    assert from_mapping(to_dict(loaded), "round trip") == loaded
 
 
 # ---------------------------------------------------------------------------------------------
