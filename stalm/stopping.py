@@ -103,5 +103,14 @@ def end_helper_processes() -> None:
         return  # they hold the tracker open: stopping it would wait for them
     tracker = getattr(resource_tracker, "_resource_tracker", None)
     stop = getattr(tracker, "_stop", None)
-    if stop is not None and getattr(tracker, "_pid", None) is not None:
-        stop()
+    if stop is None or getattr(tracker, "_pid", None) is None:
+        return
+    # semaphores a stopped run still holds (its pool's, referenced until exit) are unlinked
+    # and unregistered first, as multiprocessing does at exit; stopped with them registered,
+    # the tracker would unlink them itself and their finalizers would then fail at exit
+    from multiprocessing import util
+
+    run_finalizers = getattr(util, "_run_finalizers", None)
+    if run_finalizers is not None:
+        run_finalizers(0)
+    stop()
