@@ -92,6 +92,37 @@ def _deep(depth: int) -> str:
     return "[" * depth + "]" * depth
 
 
+ALIAS_BOMB = "".join(
+    f"l{i}: &l{i} [" + ", ".join([f"*l{i - 1}"] * 9) + "]\n" for i in range(1, 12)
+).replace("*l0", "0")
+"""Eleven levels of nine aliases each: 9**11 values once expanded, in about 500 bytes."""
+
+
+def raw_yaml(*specific: str) -> st.SearchStrategy[bytes | str]:
+    """Raw file contents: random bytes or text, or a hostile YAML document (the common ones
+    and ``specific``)."""
+    common = ["!!python/object:os.system {}\n", ALIAS_BOMB, _deep(5000)]
+    return st.one_of(
+        st.binary(max_size=300), st.text(max_size=300), st.sampled_from([*common, *specific])
+    )
+
+
+def _write_yaml(path: Path, data: Any) -> bool:
+    """``data`` dumped as YAML at ``path``; False when it cannot be dumped."""
+    try:
+        path.write_text(yaml.safe_dump(data, allow_unicode=True))
+    except yaml.YAMLError:
+        return False
+    return True
+
+
+def _write_raw(path: Path, raw: bytes | str) -> None:
+    if isinstance(raw, str):
+        path.write_text(raw, encoding="utf-8", errors="surrogatepass")
+    else:
+        path.write_bytes(raw)
+
+
 # ---------------------------------------------------------------------------------------------
 # problem files
 
@@ -100,40 +131,23 @@ def _deep(depth: int) -> str:
 @given(data=mutated(P2_DATA))
 def test_mutated_problem_files(tmp_path_factory: pytest.TempPathFactory, data: Any) -> None:
     path = tmp_path_factory.mktemp("problem") / "p.yaml"
-    try:
-        path.write_text(yaml.safe_dump(data, allow_unicode=True))
-    except yaml.YAMLError:
-        return
-    _load_problem_or_stalm_error(path)
+    if _write_yaml(path, data):
+        _load_problem_or_stalm_error(path)
 
 
 @FAST
 @given(
-    raw=st.one_of(
-        st.binary(max_size=300),
-        st.text(max_size=300),
-        st.sampled_from(
-            [
-                "a: &x [1]\nb: [*x, *x]\n",
-                "a: &a [*a]\n",
-                "".join(
-                    f"l{i}: &l{i} [" + ", ".join([f"*l{i - 1}"] * 9) + "]\n" for i in range(1, 12)
-                ).replace("*l0", "0"),
-                "name: 2001-02-30\n",
-                "!!python/object:os.system {}\n",
-                _deep(5000),
-                "{" * 200,
-                "a: " + "[" * 100 + "]" * 100,
-            ]
-        ),
+    raw=raw_yaml(
+        "a: &x [1]\nb: [*x, *x]\n",
+        "a: &a [*a]\n",
+        "name: 2001-02-30\n",
+        "{" * 200,
+        "a: " + "[" * 100 + "]" * 100,
     )
 )
 def test_raw_problem_files(tmp_path_factory: pytest.TempPathFactory, raw: bytes | str) -> None:
     path = tmp_path_factory.mktemp("problem") / "p.yaml"
-    if isinstance(raw, str):
-        path.write_text(raw, encoding="utf-8", errors="surrogatepass")
-    else:
-        path.write_bytes(raw)
+    _write_raw(path, raw)
     _load_problem_or_stalm_error(path)
 
 
@@ -159,40 +173,23 @@ SETTINGS_DATA = to_dict(RunSettings())
 @given(data=mutated(SETTINGS_DATA))
 def test_mutated_settings_files(tmp_path_factory: pytest.TempPathFactory, data: Any) -> None:
     path = tmp_path_factory.mktemp("settings") / "s.yaml"
-    try:
-        path.write_text(yaml.safe_dump(data, allow_unicode=True))
-    except yaml.YAMLError:
-        return
-    _settings_or_stalm_error(path)
+    if _write_yaml(path, data):
+        _settings_or_stalm_error(path)
 
 
 @FAST
 @given(
-    raw=st.one_of(
-        st.binary(max_size=300),
-        st.text(max_size=300),
-        st.sampled_from(
-            [
-                "search: &x {c: 50}\nexecution: *x\n",
-                "search: &a [*a]\n",
-                "".join(
-                    f"l{i}: &l{i} [" + ", ".join([f"*l{i - 1}"] * 9) + "]\n" for i in range(1, 12)
-                ).replace("*l0", "0"),
-                "!!python/object:os.system {}\n",
-                _deep(5000),
-                "search: {c: .nan}\n",
-                "budget: {time_budget_s: 1e999}\n",
-                "proposer: {noise: {rate: [1, 2]}}\n",
-            ]
-        ),
+    raw=raw_yaml(
+        "search: &x {c: 50}\nexecution: *x\n",
+        "search: &a [*a]\n",
+        "search: {c: .nan}\n",
+        "budget: {time_budget_s: 1e999}\n",
+        "proposer: {noise: {rate: [1, 2]}}\n",
     )
 )
 def test_raw_settings_files(tmp_path_factory: pytest.TempPathFactory, raw: bytes | str) -> None:
     path = tmp_path_factory.mktemp("settings") / "s.yaml"
-    if isinstance(raw, str):
-        path.write_text(raw, encoding="utf-8", errors="surrogatepass")
-    else:
-        path.write_bytes(raw)
+    _write_raw(path, raw)
     _settings_or_stalm_error(path)
 
 
