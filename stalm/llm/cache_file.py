@@ -1,4 +1,4 @@
-"""The reply cache's SQLite file: what a key is made of, the schema, reads, writes and merges.
+"""The reply cache's SQLite file: the schema, reads, writes and merges.
 
 The store is one SQLite file in WAL mode, opened per operation with short transactions, which
 is safe for several processes (parallel trials) sharing it; its keys are
