@@ -22,8 +22,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stalm.errors import StalmError
-from stalm.planners.settings import RunSettings
-from stalm.planners.settings_io import from_mapping, to_dict, with_file
+from stalm.settings.io import from_mapping, to_dict, with_file
+from stalm.settings.tree import RunSettings
 from stalm.world.problem import Problem, load_problem
 
 FAST = settings(

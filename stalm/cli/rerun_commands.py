@@ -114,7 +114,7 @@ def rerun_command(
     replayed from the reply cache without contacting it. Exit 1 if the plan differs."""
     from stalm.cli.rerun_model import model_line, rerun_llm
     from stalm.planners.registry import asks_model, planner_entry, resolve
-    from stalm.planners.settings_io import from_mapping
+    from stalm.settings.io import from_mapping
 
     if json_out is not None:
         check_output_file(json_out, "--json")

@@ -23,7 +23,7 @@ from stalm.llm.backends.identity import spec_identity
 from stalm.llm.backends.openai_compatible import BASE_URL_ENV
 from stalm.llm.cache import check_cache_mode
 from stalm.llm.cache_file import default_cache_path
-from stalm.planners.settings import LlmSection
+from stalm.settings.tree import LlmSection
 
 
 def rerun_llm(

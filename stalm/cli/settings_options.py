@@ -1,6 +1,6 @@
 """The settings tree from a command line: defaults, ``--settings FILE``, flags, ``--set``.
 
-``stalm solve`` and ``stalm experiment`` build their :class:`~stalm.planners.settings.
+``stalm solve`` and ``stalm experiment`` build their :class:`~stalm.settings.tree.
 RunSettings` here, in one order: the defaults, then the file, then the command's own flags
 (``--sims``, ``--batch``, ``--llm``, ...; each is an override of one key, applied only when
 given), then every ``--set KEY=VALUE`` in the order written. So ``--set`` wins over a flag,
@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the tree's modules load the domain: imported when a command runs
-    from stalm.planners.settings import RunSettings
+    from stalm.settings.tree import RunSettings
 
 SETTINGS_HELP = (
     "A YAML or JSON file of settings (sections of keys, as --show-settings prints them); "
@@ -44,14 +44,14 @@ def command_settings(
 ) -> CommandSettings:
     """The tree of one command: defaults, ``file``, then ``flags`` -- (option, dotted key,
     value) of each flag given -- then ``overrides`` (``--set``)."""
-    from stalm.planners.settings import FLAT_NAMES, RunSettings
-    from stalm.planners.settings_io import (
+    from stalm.settings.io import (
         flatten,
         parse_override,
         read_settings_file,
         with_file,
         with_values,
     )
+    from stalm.settings.tree import FLAT_NAMES, RunSettings
 
     named: set[str] = set()
     settings = RunSettings()

@@ -31,7 +31,7 @@ def check_solve_numbers(
     seed: int, time_budget: float | None, sims: int | None, batch: int | None
 ) -> None:
     """Numbers a solve cannot run with, as one StalmError naming the option."""
-    from stalm.planners.base import check_seed, check_time_budget
+    from stalm.trial.result import check_seed, check_time_budget
 
     check_seed(seed, "--seed")  # the API's own checks: the same words (issue 30)
     check_time_budget(time_budget, "--time-budget")
@@ -163,7 +163,7 @@ def solve_command(
 ) -> None:
     """Solve a problem with STaLM (or a baseline) and execute the plan in simulation."""
     from stalm.planners.registry import planner_entry, resolve
-    from stalm.planners.settings_io import to_yaml, with_values
+    from stalm.settings.io import to_yaml, with_values
 
     check_solve_numbers(seed, time_budget, sims, batch)
     if not show_settings:
@@ -238,7 +238,7 @@ def replay_command(
     ] = None,
 ) -> None:
     """Re-execute a saved plan in a fresh scene and check that it reaches the goal."""
-    from stalm.planners.replay import replay_result_json
+    from stalm.trial.replay import replay_result_json
 
     if gif is not None:
         check_output_file(gif, "--gif")

@@ -21,8 +21,8 @@ from stalm.errors import StalmError
 from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
 
 if TYPE_CHECKING:
-    from stalm.planners.base import PlanResult
-    from stalm.planners.settings import RunSettings
+    from stalm.settings.tree import RunSettings
+    from stalm.trial.result import PlanResult
 
 console = Console(stderr=True)
 out = Console()
@@ -85,7 +85,7 @@ def write_result_json(data: dict[str, Any], path: Path) -> Path:
 
 def result_record(result: PlanResult, problem: Problem, settings: RunSettings) -> dict[str, Any]:
     """What ``--json`` writes: the result, the problem's hash and the whole settings tree."""
-    from stalm.planners.settings_io import to_dict
+    from stalm.settings.io import to_dict
 
     return {
         **result.to_json(),
@@ -136,8 +136,8 @@ def solve_and_report(
     record to ``json_out`` (also when a server stops the run: then termination 'error').
     Returns the result and the file the record went to instead of ``json_out``, if any."""
     from stalm.planners.registry import build_planner
-    from stalm.planners.settings import with_budget
-    from stalm.planners.settings_io import to_dict
+    from stalm.settings.io import to_dict
+    from stalm.settings.tree import with_budget
 
     with console.status(f"solving {shown(problem.name)} with {planner_name}...") as status:
         planner = build_planner(planner_name, settings, progress=lambda m: status.update(shown(m)))

@@ -27,9 +27,9 @@ from stalm.domain.mdp import Domain
 from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.pddl import domain_pddl, problem_pddl
 from stalm.llm.problem_prompt import goal_literals
-from stalm.planners.symbolic import SEARCH, search_task, translate_task
 from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral
+from stalm.proposers.fast_downward import SEARCH, search_task, translate_task
 from stalm.world.problem import Problem, load_problem
 
 CAN_SPACING = 0.14

@@ -1,7 +1,7 @@
 """The noisy proposer's part of a report: what it injected against what Figure 5's classifier
 saw, and Table 3 as a curve (success rate against the error rate).
 
-The noisy proposer (:mod:`stalm.planners.noisy`) is a degraded proposer, not a language
+The noisy proposer (:mod:`stalm.proposers.noisy`) is a degraded proposer, not a language
 model: its rows are labelled ``ROW [noisy RATE]`` (:func:`noisy_label`) and never by a model's
 name. A record is the noisy proposer's when its settings say ``proposer.kind: noisy`` and its
 planner takes task plans from the proposer (STaLM, STaLM w/o UCT); its error rate is its
@@ -21,8 +21,8 @@ from pathlib import Path
 from typing import Any
 
 from stalm.planners.registry import PROPOSING
-from stalm.planners.settings import NOISE_KINDS
 from stalm.search.concretize import FAILURE_KINDS
+from stalm.settings.tree import NOISE_KINDS
 
 INJECTED_ROWS = ("clean", "inapplicable", *NOISE_KINDS)
 """The confusion table's rows: not drawn for corruption, drawn but no kind applied, a kind."""

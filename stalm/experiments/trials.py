@@ -1,7 +1,7 @@
 """One trial of an experiment: what to run (a :class:`TrialSpec`) and running it.
 
 A spec is plain, picklable data that names everything a trial's outcome depends on: the arm
-(planner name and settings tree, :class:`~stalm.planners.settings.RunSettings`), the problem
+(planner name and settings tree, :class:`~stalm.settings.tree.RunSettings`), the problem
 *text* (so a worker on another machine runs exactly the caller's problem file), the trial
 index, its seed and its time budget. Its ``key`` hashes all of that, which is how a re-run
 recognises finished trials; a trial's record keeps its resolved settings tree whole, so
@@ -27,8 +27,8 @@ from typing import Any
 
 from stalm.errors import StalmError
 from stalm.planners.registry import PlannerConfig, RunSettings, build_planner, resolve
-from stalm.planners.settings import FLAT_NAMES, with_budget
-from stalm.planners.settings_io import changed, to_dict
+from stalm.settings.io import changed, to_dict
+from stalm.settings.tree import FLAT_NAMES, with_budget
 from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
 
 RECORD_VERSION = 1

@@ -24,7 +24,7 @@ from stalm.generate.arrange import Arrangement, Knobs, arrange
 from stalm.generate.layout import scene
 from stalm.generate.witness import NoWitness, Witness, ground_witness
 from stalm.motion.problem_check import problem_geometry_faults
-from stalm.planners.base import Counters, PhaseTimes, PlanResult
+from stalm.trial.result import Counters, PhaseTimes, PlanResult
 from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
 from stalm.world.problem_file import parse_problem
 

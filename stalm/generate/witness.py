@@ -7,7 +7,7 @@ did not plan to move (a clutter object beside a chain, an occluder put where it 
 goal), the blockers are moved out of the way first, onto the regions the construction keeps
 for that, and the plan is grounded again from the start (at most :data:`REPAIRS` times); a
 placement that finds no room is tried on the next such region. The grounded plan is then
-replayed in a fresh scene (:func:`stalm.planners.replay.replay_plan`, the check ``stalm
+replayed in a fresh scene (:func:`stalm.trial.replay.replay_plan`, the check ``stalm
 replay`` makes): a problem is written only with a witness that replays to its goal.
 
 This is construction, not planning: no search over orders or alternatives beyond these local
@@ -24,7 +24,7 @@ import numpy as np
 from stalm.domain.actions import DiscreteAction, Pick, Place
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
-from stalm.planners.replay import replay_plan
+from stalm.trial.replay import replay_plan
 from stalm.world.problem import Problem
 from stalm.world.state import State
 

@@ -165,7 +165,7 @@ def _actions(occlusion: bool, feedback: bool = False, goal_relations_only: bool 
     right_of bottle1" are reachable for a classical planner. With ``feedback``, a pick or
     placement that failed geometrically is ruled out while its region is unchanged, and a
     pick marks the region it takes from as changed for every other object (taking an object
-    away makes room for the others, not for itself; :mod:`stalm.planners.feedback`). With
+    away makes room for the others, not for itself; :mod:`stalm.proposers.feedback`). With
     ``goal_relations_only`` a relative PLACE is grounded only for the goal's own relations
     (``GoalRelation``): any
     other object is put *on* a region, which covers every spot a relative placement there

@@ -17,7 +17,7 @@ step's search creates asks the model, as every new node does. With reuse off, ea
 builds a new tree and asks again for every node.
 Everything else is STaLM's hybrid search without warm start: UCT over κ with progressive
 widening, random rollouts at new leaves, run online by
-:class:`~stalm.planners.online.OnlinePlanner` as every online method is.
+:class:`~stalm.trial.online.OnlinePlanner` as every online method is.
 
 Determinism: each state's request is seeded from the trial seed and a stable digest of the state
 (never Python's salted ``hash``), so the same seed replays the same cached replies and, with
@@ -38,17 +38,17 @@ import numpy as np
 
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.mdp import RewardSettings
-from stalm.planners.config import Progress, llm_backend, use_constraint
-from stalm.planners.online import ConfiguredPlanner, Decision, Sampling, Trial
-from stalm.planners.predicate_memo import Timing
-from stalm.planners.proposers import LLMProposer, Proposal, TaskPlanProposer
-from stalm.planners.settings import DEFAULT_SIMS, RunSettings
 from stalm.predicates.literals import GroundLiteral
+from stalm.predicates.memo import Timing
+from stalm.proposers.language_model import LLMProposer, Proposal, TaskPlanProposer
 from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
 from stalm.search.mdp import SearchMDP
 from stalm.search.policies import ValueFunction
 from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
 from stalm.search.tree import Edge, SearchTree
+from stalm.settings.planner_config import Progress, llm_backend, use_constraint
+from stalm.settings.tree import DEFAULT_SIMS, RunSettings
+from stalm.trial.online import ConfiguredPlanner, Decision, Sampling, Trial
 from stalm.world.problem import Problem
 from stalm.world.state import State
 

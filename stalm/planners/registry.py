@@ -2,12 +2,12 @@
 
 ``stalm solve --planner NAME``, ``stalm rerun`` and ``stalm experiment`` all go through
 :func:`build_planner`, so a planner is configured the same way wherever it runs, from a
-:class:`~stalm.planners.settings.RunSettings` (or the flat
-:class:`~stalm.planners.config.PlannerConfig` that names one). The registry sits above the
+:class:`~stalm.settings.tree.RunSettings` (or the flat
+:class:`~stalm.settings.planner_config.PlannerConfig` that names one). The registry sits above the
 planner modules; its table holds one small builder per planner that imports the planner's
 module when it is called, so listing the planners (``stalm planners``, ``--help``) or
 resolving settings loads none of them. What the planners share with it lives below both:
-:mod:`stalm.planners.config` and :mod:`stalm.planners.settings`.
+:mod:`stalm.settings.planner_config` and :mod:`stalm.settings.tree`.
 """
 
 from __future__ import annotations
@@ -17,9 +17,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from stalm.errors import StalmError
-from stalm.planners.base import Planner
-from stalm.planners.config import PlannerConfig, Progress, llm_backend, use_constraint
-from stalm.planners.settings import RunSettings
+from stalm.settings.planner_config import PlannerConfig, Progress, llm_backend, use_constraint
+from stalm.settings.tree import RunSettings
+from stalm.trial.result import Planner
 from stalm.world.problem import Problem
 
 __all__ = [

@@ -37,14 +37,14 @@ from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.saycan_prompt import saycan_prompt
-from stalm.planners.config import Progress, llm_backend, use_constraint
-from stalm.planners.episode import Episode
-from stalm.planners.online import Decision, OnlinePlanner, Sampling, Trial
-from stalm.planners.plan_queries import query_seed
-from stalm.planners.proposers import ask_for_task_plans
-from stalm.planners.settings import RunSettings
 from stalm.predicates.literals import GroundLiteral
+from stalm.proposers.language_model import ask_for_task_plans
 from stalm.search.puct import vote_prior
+from stalm.settings.planner_config import Progress, llm_backend, use_constraint
+from stalm.settings.tree import RunSettings
+from stalm.trial.episode import Episode
+from stalm.trial.online import Decision, OnlinePlanner, Sampling, Trial
+from stalm.trial.query_seeds import query_seed
 from stalm.world.state import State
 
 Affordance = Callable[[DiscreteAction], bool]

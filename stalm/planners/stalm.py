@@ -6,13 +6,13 @@ execute it; otherwise run WarmStartedUCT (Algorithms 3–5) warm-started with ev
 Concretize explored; if a simulation reaches the goal, execute that plan, else execute one
 root action and plan again from the resulting state (:class:`~stalm.planners.tree_step.
 SearchStep`, shared with UCT). The trial itself -- one deadline, the executed plan, its replay
-in a fresh scene -- is :class:`~stalm.planners.online.OnlinePlanner`'s.
+in a fresh scene -- is :class:`~stalm.trial.online.OnlinePlanner`'s.
 
 Beyond the paper, each a setting of the run's settings tree
-(:class:`~stalm.planners.settings.RunSettings`, read through :class:`StalmSettings`) with the
+(:class:`~stalm.settings.tree.RunSettings`, read through :class:`StalmSettings`) with the
 paper's way one switch away: tree reuse and the execution rule
 (:mod:`stalm.planners.tree_step`), and **geometric feedback**: the steps Concretize found
-infeasible go back to the proposer (:mod:`stalm.planners.feedback`), which is asked again in
+infeasible go back to the proposer (:mod:`stalm.proposers.feedback`), which is asked again in
 the same step while it comes up with task plans not yet tried there (at most
 ``feedback_rounds`` proposals per step).
 """
@@ -26,21 +26,17 @@ from typing import Any, ClassVar, cast
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
-from stalm.planners.config import Progress, llm_backend, use_constraint
-from stalm.planners.feedback import failed_steps
-from stalm.planners.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
-from stalm.planners.noisy import NoisyProposer, injected_records
-from stalm.planners.online import Sampling, Trial
-from stalm.planners.proposers import (
+from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
+from stalm.proposers.fast_downward import SymbolicProposer
+from stalm.proposers.feedback import failed_steps
+from stalm.proposers.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
+from stalm.proposers.language_model import (
     FeedbackProposer,
     LLMProposer,
     TaskPlanProposer,
     takes_feedback,
 )
-from stalm.planners.settings import ProposerKind, RunSettings
-from stalm.planners.step_log import proposal_record
-from stalm.planners.symbolic import SymbolicProposer
-from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
+from stalm.proposers.noisy import NoisyProposer, injected_records
 from stalm.search import (
     ConcretePlan,
     ConcretizeResult,
@@ -48,6 +44,10 @@ from stalm.search import (
     TaskPlan,
     concretize,
 )
+from stalm.settings.planner_config import Progress, llm_backend, use_constraint
+from stalm.settings.tree import ProposerKind, RunSettings
+from stalm.trial.online import Sampling, Trial
+from stalm.trial.step_log import proposal_record
 
 __all__ = ["StalmPlanner", "StalmSettings", "StalmStep"]
 

@@ -10,10 +10,10 @@ its settings.
 from __future__ import annotations
 
 from stalm.domain.params import Action
-from stalm.planners.config import Progress
-from stalm.planners.settings import RunSettings
 from stalm.planners.stalm import StalmPlanner, StalmStep, proposer_for
 from stalm.search import ConcretePlan
+from stalm.settings.planner_config import Progress
+from stalm.settings.tree import RunSettings
 
 
 class NoUctStep(StalmStep):

@@ -4,12 +4,12 @@ These four run the same step (Algorithm 1's loop body): get task plans and Concr
 (STaLM's part, :meth:`SearchStep.propose`; none for UCT), execute a plan that reached the goal,
 and otherwise run (warm-started) UCT from the current state and execute what the execution
 rule chooses (:meth:`SearchStep.search`; STaLM w/o UCT takes the best plan's first action
-instead). :class:`SearchStep` is that step and its record (:mod:`stalm.planners.step_log`);
+instead). :class:`SearchStep` is that step and its record (:mod:`stalm.trial.step_log`);
 :class:`StalmSettings` what it reads of the run's settings tree, which holds the paper's values
 and what this implementation adds:
 
 * **tree reuse** (the authors' loop): the executed child's subtree is the next step's tree
-  (:meth:`stalm.planners.online.Trial.execute`), so statistics accumulate over the episode;
+  (:meth:`stalm.trial.online.Trial.execute`), so statistics accumulate over the episode;
 * **the execution rule**: without a goal plan, 'progress' executes the highest-Q root action
   from which the tree knows a way to more goal conjuncts than the root has, and while no
   root action does, searches on from the same root (at most ``search_rounds`` searches: a
@@ -25,10 +25,10 @@ from typing import Any, cast
 
 from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
-from stalm.planners.online import ConfiguredPlanner, Decision, Trial
-from stalm.planners.settings import ExecutionRule, RunSettings
-from stalm.planners.step_log import tree_record, warm_edges
 from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
+from stalm.settings.tree import ExecutionRule, RunSettings
+from stalm.trial.online import ConfiguredPlanner, Decision, Trial
+from stalm.trial.step_log import tree_record, warm_edges
 from stalm.world.state import State
 
 
@@ -39,7 +39,7 @@ class StalmSettings:
     beyond the paper (each can be switched back to the paper's way in the tree).
 
     A view with no defaults of its own: :meth:`of` builds it from a
-    :class:`~stalm.planners.settings.RunSettings`, whose sections hold every default and
+    :class:`~stalm.settings.tree.RunSettings`, whose sections hold every default and
     check every value, so a planner built by hand runs what ``stalm solve`` runs.
     """
 
@@ -51,7 +51,7 @@ class StalmSettings:
     """Keep the executed child's subtree as the next step's tree (the authors' experiment
     loop); False starts every real step from a fresh tree."""
     feedback: bool
-    """Geometric feedback (:mod:`stalm.planners.feedback`): Concretize's failed steps go back
+    """Geometric feedback (:mod:`stalm.proposers.feedback`): Concretize's failed steps go back
     to the proposer, which is asked again while it offers task plans not yet tried in the
     step (at most ``feedback_rounds`` times)."""
     feedback_rounds: int
@@ -126,7 +126,7 @@ class SearchStep:
         self.policies = policies
         self.step_log: list[dict[str, Any]] = []
         """Per real step: the task plans and their fate, the tree, the decision
-        (:mod:`stalm.planners.step_log`)."""
+        (:mod:`stalm.trial.step_log`)."""
         self._step: dict[str, Any] = {}
         """The current step's entry of ``step_log``."""
 

@@ -9,11 +9,11 @@ predicates.
 
 from __future__ import annotations
 
-from stalm.planners.config import Progress
-from stalm.planners.online import Sampling, Trial
-from stalm.planners.settings import DEFAULT_SIMS, RunSettings
 from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
 from stalm.search import SearchPolicies
+from stalm.settings.planner_config import Progress
+from stalm.settings.tree import DEFAULT_SIMS, RunSettings
+from stalm.trial.online import Sampling, Trial
 
 UCT_BUDGET = DEFAULT_SIMS["uct"]
 """N_budget of the UCT baselines in the paper's §4.2."""

@@ -1,6 +1,6 @@
 """UCT-with-Hcount (§4.2, Appendix C): UCT whose leaf value is the Hcount heuristic.
 
-The same online search as :mod:`stalm.planners.uct`, with :class:`~stalm.planners.hcount.
+The same online search as :mod:`stalm.planners.uct`, with :class:`~stalm.search.hcount.
 HcountLeafValue` in place of a random rollout. Hcount reads the occlusion predicates of every
 leaf, so this planner always computes them, from the trial's one predicate memo (each leaf
 brought forward from its parent).
@@ -11,13 +11,13 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
-from stalm.planners.config import Progress
-from stalm.planners.hcount import HcountLeafValue
-from stalm.planners.online import Trial
-from stalm.planners.settings import RunSettings
 from stalm.planners.tree_step import SearchStep, StalmSettings
 from stalm.planners.uct import UctPlanner
 from stalm.search import SearchPolicies
+from stalm.search.hcount import HcountLeafValue
+from stalm.settings.planner_config import Progress
+from stalm.settings.tree import RunSettings
+from stalm.trial.online import Trial
 
 
 class UctHcountPlanner(UctPlanner):

@@ -6,7 +6,7 @@ the deadline between its samples (each a fraction of a second) and, once it has 
 the computation up by raising :exc:`DeadlinePassed`: what it had computed is dropped, never
 returned as a state's predicates. The deadline is a callable, not a time, because a trial's
 deadline moves (a reply served from the cache moves it earlier,
-:meth:`stalm.planners.episode.Episode.charge`).
+:meth:`stalm.trial.episode.Episode.charge`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 Deadline = Callable[[], bool]
-"""True once the deadline has passed (e.g. :meth:`stalm.planners.episode.Episode.out_of_time`)."""
+"""True once the deadline has passed (e.g. :meth:`stalm.trial.episode.Episode.out_of_time`)."""
 
 
 class DeadlinePassed(Exception):

@@ -11,7 +11,7 @@ the pose of every body that moves (doors, objects, the robot's base and lift) an
 joint positions, drawn as a stick figure (its links are meshes, not primitives).
 
 A result file is not trusted: its plan is replayed in a fresh scene from the problem's own
-initial state (:func:`stalm.planners.replay.replay_result_json`), which gives the states the
+initial state (:func:`stalm.trial.replay.replay_result_json`), which gives the states the
 motion goes through and confirms the plan; a step that fails there ends the animation with a
 note. Anything an older file lacks (the per-step record) becomes a note, never an error.
 """
@@ -29,8 +29,8 @@ import pybullet as p
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
 from stalm.errors import StalmError
 from stalm.files import read_json_file
-from stalm.planners.replay import replay_result_json
-from stalm.planners.step_log import DECISIONS
+from stalm.trial.replay import replay_result_json
+from stalm.trial.step_log import DECISIONS
 from stalm.viz.animate import plan_motion
 from stalm.world.problem import Problem
 from stalm.world.scene import Sim

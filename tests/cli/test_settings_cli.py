@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 from stalm.planners.registry import RunSettings
-from stalm.planners.settings_io import from_mapping
+from stalm.settings.io import from_mapping
 from tests.cli.test_bad_input import one_error_line
 from tests.cli_runner import run_cli
 

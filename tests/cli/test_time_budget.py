@@ -13,7 +13,7 @@ from dataclasses import asdict
 import pytest
 
 from stalm.domain.mdp import Domain
-from stalm.planners.base import Counters, PhaseTimes
+from stalm.trial.result import Counters, PhaseTimes
 from stalm.world.problem import load_problem
 from tests.cli_runner import run_cli
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from stalm.domain.actions import DiscreteAction, Open, Pick, Place
-from stalm.planners.hcount import occluder_set
-from stalm.planners.replay import replay_plan
+from stalm.search.hcount import occluder_set
+from stalm.trial.replay import replay_plan
 
 
 def move(obj: str, region: str) -> tuple[DiscreteAction, DiscreteAction]:

@@ -10,8 +10,8 @@ import pytest
 from stalm.errors import StalmError
 from stalm.experiments.suites import TABLE2_PLANNERS, build_plan, trial_specs
 from stalm.experiments.trials import derive_seed
-from stalm.planners.settings import RunSettings
-from stalm.planners.settings_io import changed, with_overrides
+from stalm.settings.io import changed, with_overrides
+from stalm.settings.tree import RunSettings
 
 
 def test_table2_defaults_to_the_papers_seven_rows_on_six_problems() -> None:
@@ -129,7 +129,7 @@ def test_trial_keys_of_default_settings_are_those_of_before_the_settings_tree() 
 
 def test_the_paper_rows_run_the_authors_settings_and_plus_rows_the_defaults() -> None:
     from stalm.experiments.suites import AUTHORS_SETTINGS, PAPER_ROWS, PLUS_ROWS
-    from stalm.planners.settings_io import changed
+    from stalm.settings.io import changed
 
     rows = (*PAPER_ROWS, *(f"{name}+" for name in PLUS_ROWS))
     arms = {arm.label: arm for arm in build_plan("table2", planners=rows, trials=1).arms}
@@ -148,8 +148,8 @@ def test_the_paper_rows_run_the_authors_settings_and_plus_rows_the_defaults() ->
 def test_the_issue13_results_logs_still_resume() -> None:
     """The commands written above docs/results.md's issue-13 tables (flat --set names
     included) find every trial of their results logs already done."""
-    from stalm.planners.settings import RunSettings
-    from stalm.planners.settings_io import with_overrides
+    from stalm.settings.io import with_overrides
+    from stalm.settings.tree import RunSettings
 
     folder = Path(__file__).resolve().parents[2] / "docs" / "results" / "issue13"
     everything_off = [
@@ -188,8 +188,8 @@ def test_the_issue13_results_logs_still_resume() -> None:
 
 
 def test_a_setting_beyond_the_flat_ones_changes_the_key_and_an_arm_keeps_its_own() -> None:
-    from stalm.planners.settings import RunSettings
-    from stalm.planners.settings_io import with_overrides
+    from stalm.settings.io import with_overrides
+    from stalm.settings.tree import RunSettings
 
     def keys(*overrides: str) -> list[str]:
         base = with_overrides(RunSettings(), list(overrides))

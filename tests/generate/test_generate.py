@@ -19,7 +19,7 @@ from stalm.generate.arrange import Knobs
 from stalm.generate.problem_maker import DECIMALS, generate_problem
 from stalm.generate.suite import INDEX, read_suite, witness_path
 from stalm.motion.problem_check import problem_geometry_faults
-from stalm.planners.replay import replay_plan
+from stalm.trial.replay import replay_plan
 from stalm.world.problem import load_problem
 from tests.cli_runner import run_cli
 

@@ -15,8 +15,8 @@ import pytest
 from stalm.errors import StalmError
 from stalm.llm.cache import CachedBackend
 from stalm.llm.cache_file import ReplyCache, sample_key
-from stalm.planners.settings import RunSettings
-from stalm.planners.settings_io import with_values
+from stalm.settings.io import with_values
+from stalm.settings.tree import RunSettings
 from tests.read_only import read_only
 
 from .llm_doubles import CountingFakeBackend, FailingFakeBackend
@@ -49,7 +49,7 @@ def test_replay_reads_the_default_cache_in_a_read_only_folder(clean_llm_env: Pat
 
 def test_replay_reads_a_named_read_only_cache_file(tmp_path: Path) -> None:
     """``--cache replay --set llm.cache_file=FILE``: the settings' path, opened read-only."""
-    from stalm.planners.config import llm_backend
+    from stalm.settings.planner_config import llm_backend
 
     path, replies = _recorded(tmp_path / "sent")
     values = {"llm.cache": "replay", "llm.cache_file": str(path), "llm.backend": "embedded"}

@@ -7,10 +7,10 @@ from typing import Any
 
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.mdp import Domain
-from stalm.planners.proposers import Proposal
-from stalm.planners.settings import RunSettings
-from stalm.planners.settings_io import with_values
 from stalm.predicates.literals import GroundLiteral
+from stalm.proposers.language_model import Proposal
+from stalm.settings.io import with_values
+from stalm.settings.tree import RunSettings
 from stalm.world.problem import Problem
 from stalm.world.state import State
 

@@ -26,11 +26,11 @@ from stalm.planners.llm_mcts import (
     llm_mcts_policies,
     state_request_seed,
 )
-from stalm.planners.proposers import LLMProposer, Proposal
 from stalm.planners.registry import PlannerConfig, RunSettings, build_planner
-from stalm.planners.replay import replay_result_json
-from stalm.planners.settings_io import with_overrides
+from stalm.proposers.language_model import LLMProposer, Proposal
 from stalm.search import SearchSettings, SearchTree, warm_started_uct
+from stalm.settings.io import with_overrides
+from stalm.trial.replay import replay_result_json
 from stalm.world.problem import load_problem
 from stalm.world.state import ObjectPose
 from tests.planners.mcts_doubles import (
@@ -257,7 +257,7 @@ def test_llm_mcts_reuses_the_tree_by_the_one_setting_of_every_tree_planner() -> 
 def test_the_reused_subtree_keeps_the_n_and_q_it_had_before_the_step(problems, monkeypatch) -> None:
     """After a real step, every node of LLM-MCTS's kept subtree has the visits and values it
     had in the tree that chose the step, and the next search starts from that subtree."""
-    from stalm.planners import online
+    from stalm.trial import online
     from stalm.world.problem import Problem
     from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply
 

@@ -24,8 +24,8 @@ from stalm.planners.pddlstream.pddl_text import DOMAIN_PDDL
 from stalm.planners.pddlstream.planner import adaptive_for, fluents
 from stalm.planners.pddlstream.values import PoseValue, is_optimistic
 from stalm.planners.registry import PlannerConfig
-from stalm.planners.replay import replay_plan
-from stalm.planners.symbolic import translate_task
+from stalm.proposers.fast_downward import translate_task
+from stalm.trial.replay import replay_plan
 from stalm.world.problem import Problem
 from stalm.world.state import ObjectPose
 

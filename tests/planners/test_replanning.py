@@ -11,8 +11,8 @@ from stalm.llm.feedback_prompt import FailedPlan, feedback_text, format_plan, wi
 from stalm.llm.prompt import Prompt
 from stalm.planners.iterative_replanning import IterativeReplanningPlanner, failed_plan
 from stalm.planners.registry import PlannerConfig, build_planner
-from stalm.planners.replay import replay_result_json
 from stalm.search import TaskPlan, concretize
+from stalm.trial.replay import replay_result_json
 from stalm.world.problem import Problem
 from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply
 from tests.planners.test_stalm import P2_PLAN

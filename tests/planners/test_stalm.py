@@ -9,11 +9,11 @@ import pytest
 
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.mdp import Domain
-from stalm.planners.proposers import Proposal
-from stalm.planners.replay import replay_plan, replay_result_json
 from stalm.planners.stalm import StalmPlanner
 from stalm.planners.uct import UctPlanner
+from stalm.proposers.language_model import Proposal
 from stalm.search import SearchSettings, SearchTree, TaskPlan, concretize, warm_started_uct
+from stalm.trial.replay import replay_plan, replay_result_json
 from stalm.world.problem import Problem
 from tests.planners.doubles import ScriptedSuffixProposer, plain_settings
 

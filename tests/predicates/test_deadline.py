@@ -13,10 +13,10 @@ import pytest
 
 from stalm.domain.actions import Pick
 from stalm.domain.mdp import Domain
-from stalm.planners.predicate_memo import PredicateMemo
 from stalm.predicates.deadline import DeadlinePassed
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.predicates.literals import GroundLiteral
+from stalm.predicates.memo import PredicateMemo
 
 
 class CountingDeadline:

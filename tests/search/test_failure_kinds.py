@@ -8,11 +8,11 @@ import pytest
 
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility, Outcome
-from stalm.planners.episode import Episode
 from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral as L
 from stalm.search.concretize import ConcretePlan, ConcreteStep, TaskPlan, concretize
 from stalm.search.failure_kinds import figure5_kind, figure5_kinds, occluded_in
+from stalm.trial.episode import Episode
 from tests.search.synthetic import drawn, state
 
 S = state("s0")

@@ -11,12 +11,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from stalm.planners.base import Planner
 from stalm.planners.pddlstream.adaptive import AdaptiveSettings
 from stalm.planners.pddlstream.planner import PDDLStreamPlanner
+from stalm.trial.result import Planner
 
 if TYPE_CHECKING:
-    from stalm.planners.settings import RunSettings
+    from stalm.settings.tree import RunSettings
 
 __all__ = ["AdaptiveSettings", "PDDLStreamPlanner", "build_pddlstream_adaptive"]
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from stalm.planners.pddlstream.pddl_text import DOMAIN_PDDL
-from stalm.planners.symbolic import read_plan_steps, search_task, translate_task
+from stalm.proposers.fast_downward import read_plan_steps, search_task, translate_task
 
 SEARCH = "lazy_wastar([ff()], preferred=[ff()], w=2)"
 """Fast Downward's search: weighted A* (w = 2) with the FF heuristic and preferred operators;

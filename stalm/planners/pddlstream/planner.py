@@ -31,7 +31,14 @@ from stalm.domain.params import Action
 from stalm.domain.samplers import SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.planners.base import (
+from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, Streams
+from stalm.planners.pddlstream.execute import build_action, learn_from
+from stalm.planners.pddlstream.knowledge import Knowledge
+from stalm.planners.pddlstream.pddl_text import Fact, goal_fact
+from stalm.planners.pddlstream.streams import StreamGeometry
+from stalm.planners.pddlstream.values import PoseValue
+from stalm.trial.replay import replay_plan
+from stalm.trial.result import (
     Counters,
     PhaseTimes,
     PlanResult,
@@ -39,13 +46,6 @@ from stalm.planners.base import (
     check_time_budget,
     cpu_seconds,
 )
-from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, Streams
-from stalm.planners.pddlstream.execute import build_action, learn_from
-from stalm.planners.pddlstream.knowledge import Knowledge
-from stalm.planners.pddlstream.pddl_text import Fact, goal_fact
-from stalm.planners.pddlstream.streams import StreamGeometry
-from stalm.planners.pddlstream.values import PoseValue
-from stalm.planners.replay import replay_plan
 from stalm.world.problem import Problem
 from stalm.world.relations import supporting_region
 from stalm.world.state import State

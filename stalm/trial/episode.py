@@ -1,0 +1,277 @@
+"""The bookkeeping of one online trial (kept by :class:`stalm.trial.online.OnlinePlanner`).
+
+Every online planner does the same things around its decisions: one wall-clock deadline for the
+whole trial, the executed actions and the states they lead to, wall time per phase, what the
+language model cost, the failure kinds of the task plans it offered, and at the end a replay of
+the executed plan in a fresh scene (a plan that fails there is a failure, never a success) turned
+into a :class:`PlanResult`. :class:`Episode` holds exactly that, so a method's module is only
+its decision rule.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any
+
+from stalm.domain.mdp import Domain
+from stalm.domain.params import Action
+from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.predicates.memo import PredicateMemo
+from stalm.proposers.language_model import Proposal
+from stalm.search.concretize import ConcretizeResult
+from stalm.search.failure_kinds import figure5_kinds
+from stalm.trial.replay import replay_plan
+from stalm.trial.result import Counters, PhaseTimes, PlanResult, cpu_seconds
+from stalm.world.problem import Problem
+from stalm.world.state import State
+
+
+@dataclass
+class PhaseClock:
+    """Seconds spent per phase so far (mutable: the loop adds to it).
+
+    Phases nest: LLM-MCTS asks its prior and Hcount computes predicates from inside the tree
+    search, and those seconds are the prior's and the predicates', not the search's. So a
+    block timed by :meth:`timed` is charged its wall time less what the blocks timed inside it
+    took.
+    """
+
+    predicates: float = 0.0
+    llm: float = 0.0
+    concretize: float = 0.0
+    tree: float = 0.0
+    execution: float = 0.0
+    setup: float = 0.0
+    _inner: list[float] = field(default_factory=list, repr=False)
+    """Per running :meth:`timed` block: the seconds of the blocks timed inside it so far."""
+
+    @contextmanager
+    def timed(self, phase: str | None) -> Iterator[None]:
+        """Charge the block's wall time, less that of blocks timed inside it, to ``phase``.
+
+        ``None`` charges nothing: for time another record accounts for (a model query, whose
+        seconds :meth:`Episode.record_query` charges), taken out of the enclosing phase.
+        """
+        self._inner.append(0.0)
+        tick = time.monotonic()
+        try:
+            yield
+        finally:
+            elapsed = time.monotonic() - tick
+            inner = self._inner.pop()
+            if phase is not None:
+                setattr(self, phase, getattr(self, phase) + elapsed - inner)
+            if self._inner:
+                self._inner[-1] += elapsed
+
+
+@dataclass(frozen=True)
+class QueryRecord:
+    """One language-model query of a trial, for the result: was it answered from the reply
+    cache, how long it took now, and how long the calls that made its replies took."""
+
+    from_cache: bool
+    seconds: float
+    original_seconds: float
+    plans: int
+    truncated_plans: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "from_cache": self.from_cache,
+            "seconds": round(self.seconds, 6),
+            "original_seconds": round(self.original_seconds, 6),
+            "plans": self.plans,
+            "truncated_plans": self.truncated_plans,
+        }
+
+
+@dataclass
+class Episode:
+    """One trial in progress: where the robot is, what it did, and what that cost.
+
+    Time is charged as the trial would have taken without the reply cache: a query is counted
+    at the seconds its replies took when they were made (:attr:`Proposal.original_seconds`),
+    and the difference to what it took now moves the trial's start and deadline earlier. So a
+    trial's time, its LLM time and whether it ends within its budget do not depend on which
+    earlier run happened to fill the cache; a replayed run shows the time of the run it
+    replays.
+    """
+
+    problem: Problem
+    start_time: float
+    deadline: float
+    state: State
+    executed: list[Action] = field(default_factory=list)
+    states: list[State] = field(default_factory=list)
+    clock: PhaseClock = field(default_factory=PhaseClock)
+    failures: Counter[str] = field(default_factory=Counter)
+    llm_calls: int = 0
+    prompt_tokens: int = 0
+    completion_tokens: int = 0
+    queries: list[QueryRecord] = field(default_factory=list)
+    memo: PredicateMemo | None = None
+    """The trial's predicates by state (set by the first :meth:`predicates`)."""
+    cpu_start: float = field(default_factory=cpu_seconds)
+    """:func:`cpu_seconds` when the trial began."""
+
+    @staticmethod
+    def begin(problem: Problem, time_budget_s: float | None) -> Episode:
+        """A trial starting now from the problem's initial state (budget None: the problem's)."""
+        start = time.monotonic()
+        budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
+        state = problem.initial_state
+        return Episode(problem, start, start + budget, state, states=[state])
+
+    def out_of_time(self) -> bool:
+        return time.monotonic() >= self.deadline
+
+    def stop_reason(self, domain: Domain) -> str | None:
+        """'goal', 'horizon' or 'timeout' when the trial must stop now, else None."""
+        if domain.is_goal(self.state):
+            return "goal"
+        if len(self.executed) >= self.problem.horizon:
+            return "horizon"
+        if self.out_of_time():
+            return "timeout"
+        return None
+
+    def predicates(self, memo: PredicateMemo | PredicateEngine) -> PredicateCache:
+        """The current state's predicates, timed as the 'predicates' phase.
+
+        Computed from scratch once; after that brought forward through every action executed
+        since the last call with Appendix A's cached update (equal to a full computation), so
+        a planner asking once per step pays only for what its actions changed. ``memo`` is
+        the trial's (:class:`PredicateMemo`, shared with whatever else needs predicates), or
+        an engine to keep a memo of this episode's own.
+        """
+        if isinstance(memo, PredicateEngine):
+            if self.memo is None or self.memo.engine is not memo:
+                self.memo = PredicateMemo(memo, self.clock, self.out_of_time)
+            memo = self.memo
+        self.memo = memo
+        return memo.along(self.states, self.executed)
+
+    def count_failures(self, concrete: ConcretizeResult) -> None:
+        """Add the Figure 5 kinds of the task plans Concretize could not take to the goal.
+
+        They were tried from the current state, whose predicates (the prompt's init) decide
+        whether a failed first step was occluded, i.e. a precondition violation
+        (:mod:`stalm.search.failure_kinds`).
+        """
+        if not concrete.failures:
+            return
+        current = self.memo.known(self.state) if self.memo is not None else None
+        if current is None:
+            raise RuntimeError("count_failures needs the current state's predicates")
+        self.failures.update(figure5_kinds(concrete, current.literals))
+
+    def record_query(self, proposal: Proposal) -> None:
+        """Add one language-model query's calls, tokens and seconds (its original seconds,
+        see the class docstring), and keep its :class:`QueryRecord`."""
+        self.llm_calls += proposal.calls
+        self.prompt_tokens += proposal.prompt_tokens
+        self.completion_tokens += proposal.completion_tokens
+        self.clock.llm += proposal.original_seconds
+        self.charge(proposal.original_seconds - proposal.seconds)
+        self.queries.append(
+            QueryRecord(
+                proposal.from_cache,
+                proposal.seconds,
+                proposal.original_seconds,
+                len(proposal.plans),
+                proposal.truncated_plans,
+            )
+        )
+
+    def charge(self, seconds: float) -> None:
+        """Count ``seconds`` as spent although the wall clock did not see them pass (the
+        original time of replies served from the cache): the trial started that much earlier
+        and its deadline comes that much sooner."""
+        self.start_time -= seconds
+        self.deadline -= seconds
+
+    def execute(self, domain: Domain, action: Action) -> None:
+        """Apply a sampled action that ψ found feasible in the current state."""
+        tick = time.monotonic()
+        outcome = domain.step(self.state, action)
+        self.state = outcome.state
+        self.executed.append(action)
+        self.states.append(self.state)
+        self.clock.execution += time.monotonic() - tick
+
+    def finish(
+        self,
+        domain: Domain | None,
+        planner: str,
+        seed: int,
+        termination: str,
+        *,
+        simulations: int = 0,
+        replans: int = 0,
+        details: dict[str, Any] | None = None,
+    ) -> PlanResult:
+        """The trial's result; a 'goal' run is replayed in a fresh scene before it counts.
+        ``domain`` is None for a trial whose deadline passed before its scene was built."""
+        verified = True
+        replay_reason = None
+        if termination == "goal":
+            tick = time.monotonic()
+            report = replay_plan(self.problem, self.problem.initial_state, self.executed)
+            self.clock.execution += time.monotonic() - tick
+            verified = report.reached_goal
+            replay_reason = report.reason
+            if not verified:
+                termination = "replay_failed"
+        clock = self.clock
+        total = time.monotonic() - self.start_time
+        return PlanResult(
+            problem=self.problem.name,
+            planner=planner,
+            seed=seed,
+            success=termination == "goal" and verified,
+            plan=tuple(self.executed),
+            states=tuple(self.states),
+            times=PhaseTimes(
+                clock.predicates,
+                clock.llm,
+                clock.concretize,
+                clock.tree,
+                clock.execution,
+                total,
+                cpu_seconds() - self.cpu_start,
+                clock.setup,
+            ),
+            counters=Counters(
+                llm_calls=self.llm_calls,
+                prompt_tokens=self.prompt_tokens,
+                completion_tokens=self.completion_tokens,
+                transitions=domain.counters.transitions if domain else 0,
+                samples=domain.counters.samples if domain else 0,
+                collision_checks=domain.sim.collision_checks if domain else 0,
+                simulations=simulations,
+                replans=replans,
+            ),
+            termination=termination,
+            llm_plan_failures=dict(self.failures),
+            details={
+                **(details or {}),
+                "replay_failure": replay_reason,
+                **self._query_details(),
+            },
+        )
+
+    def _query_details(self) -> dict[str, Any]:
+        """The per-query record and its sums (nothing for a trial that asked no model)."""
+        if not self.queries:
+            return {}
+        return {
+            "llm_queries": [query.to_json() for query in self.queries],
+            "llm_queries_from_cache": sum(query.from_cache for query in self.queries),
+            "llm_seconds_now": round(sum(query.seconds for query in self.queries), 6),
+            "truncated_plans": sum(query.truncated_plans for query in self.queries),
+        }

@@ -1,0 +1,296 @@
+"""The online-planner scaffold, written once: a trial's loop around one method's decisions.
+
+STaLM and the baselines that act online (UCT, UCT-with-Hcount, EP-SayCan,
+Iterative-Replanning, LLM-MCTS) all run the same trial: start one wall-clock deadline and one
+simulator, repeatedly decide what to execute in the current state and execute it, stop at the
+goal, the horizon or the deadline (also when it passes during a predicate computation, which
+the deadline bounds), and replay the executed plan in a fresh scene before it
+counts (:meth:`Episode.finish`). :class:`OnlinePlanner` is that trial; a method is a subclass
+that says what it decides (:class:`Decider`). :class:`Trial` is what a decision may use: the
+domain, the bookkeeping (:class:`~stalm.trial.episode.Episode`), the one predicate memo of
+the trial (:class:`~stalm.predicates.memo.PredicateMemo`), the seeded generator, the
+search tree kept between real steps, phase timing and progress messages.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from abc import ABC, abstractmethod
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Protocol
+
+import numpy as np
+
+from stalm.domain.mdp import Domain, RewardSettings
+from stalm.domain.params import Action
+from stalm.domain.samplers import SamplerSettings
+from stalm.predicates.deadline import DeadlinePassed
+from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.predicates.memo import PredicateMemo
+from stalm.predicates.samples import PredicateSettings
+from stalm.search import SearchSettings, SearchTree
+from stalm.settings.planner_config import Progress
+from stalm.settings.tree import RunSettings
+from stalm.trial.episode import Episode
+from stalm.trial.result import PlanResult, check_seed, check_time_budget
+from stalm.world.problem import Problem
+from stalm.world.scene import Sim
+from stalm.world.scene_build import SceneAbandoned
+from stalm.world.state import State
+
+Decision = tuple[Action, ...] | str
+"""What a decision returns: the actions to execute now (none: decide again from the same
+state), or a termination ('timeout', 'no_progress') that ends the trial."""
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """How a trial's domain draws κ (ψ's tries) and its predicate engine samples motions:
+    the settings tree's ``samplers`` and ``predicates`` sections, for every online planner
+    (a view of the tree, which holds their defaults: :meth:`of`)."""
+
+    samplers: SamplerSettings
+    predicates: PredicateSettings
+
+    @classmethod
+    def of(cls, settings: RunSettings) -> Sampling:
+        return cls(settings.samplers, settings.predicates)
+
+
+@dataclass
+class Trial:
+    """One trial in progress, as a method's decisions see it (see the module docstring)."""
+
+    domain: Domain
+    episode: Episode
+    memo: PredicateMemo
+    rng: np.random.Generator
+    seed: int
+    progress: Progress | None = None
+    reuse_tree: bool = False
+    """Keep the executed child's subtree as the next step's tree (:meth:`execute`)."""
+    tree: SearchTree | None = None
+    """The search tree of the current state, if the method searches (:meth:`tree_at`)."""
+    simulations: int = 0
+    replans: int = 0
+    reused_root_visits: list[int] = field(default_factory=list)
+    """Per real step whose tree was kept: the visits its root already had."""
+
+    @property
+    def problem(self) -> Problem:
+        return self.episode.problem
+
+    @property
+    def state(self) -> State:
+        return self.episode.state
+
+    @property
+    def done(self) -> int:
+        """How many actions have been executed."""
+        return len(self.episode.executed)
+
+    def within_horizon(self, search: SearchSettings) -> SearchSettings:
+        """``search`` looking no further than this trial's horizon (the problem's): a plan
+        the tree finds is executed whole, so it must end within the steps the trial has
+        left, whatever horizon the method's own settings carry."""
+        if search.horizon == self.problem.horizon:
+            return search
+        return dataclasses.replace(search, horizon=self.problem.horizon)
+
+    def say(self, message: str) -> None:
+        if self.progress is not None:
+            self.progress(message)
+
+    @contextmanager
+    def phase(self, name: str | None) -> Iterator[None]:
+        """Charge the block's wall time to phase ``name`` (see :meth:`PhaseClock.timed`)."""
+        with self.episode.clock.timed(name):
+            yield
+
+    def out_of_time(self) -> bool:
+        return self.episode.out_of_time()
+
+    def predicates(self) -> PredicateCache:
+        """The current state's predicates, from the trial's memo."""
+        return self.episode.predicates(self.memo)
+
+    def tree_at(self, state: State) -> SearchTree:
+        """The tree rooted at ``state``: the one kept from the last step if it is rooted
+        there, else a new one (kept until an action is executed)."""
+        if self.tree is None or self.tree.root != state:
+            self.tree = SearchTree.for_root(self.domain, state)
+        return self.tree
+
+    def execute(self, action: Action) -> None:
+        """Execute a feasible sampled action; with tree reuse, the executed action's child
+        becomes the tree's root, with its statistics (the authors' loop)."""
+        before = self.episode.state
+        self.episode.execute(self.domain, action)
+        tree, self.tree = self.tree, None
+        after = self.episode.state
+        if tree is not None and self.reuse_tree and tree.root == before and after in tree:
+            self.tree = tree.subtree(after)
+            self.reused_root_visits.append(self.tree.visits(after))
+        self.say(f"executed {action.discrete}")
+
+
+class Decider(Protocol):
+    """One method's decisions within one trial (made by :meth:`OnlinePlanner.start`)."""
+
+    def decide(self) -> Decision:
+        """What to do in the trial's current state."""
+        ...
+
+    def details(self) -> dict[str, Any]:
+        """The method's own record for ``PlanResult.details``."""
+        ...
+
+
+class OnlinePlanner(ABC):
+    """A planner that acts online: subclasses name the method and make its :class:`Decider`.
+
+    A subclass has a ``progress`` and a ``sampling`` attribute (the latter
+    :meth:`Sampling.of` the run's settings tree); it may override
+    :attr:`rewards` (R's constants), :attr:`occlusion` (whether the trial's predicates include
+    the occlusion literals, which cost motion planning) and :attr:`reuse_tree`.
+    """
+
+    name: ClassVar[str]
+    progress: Progress | None
+    sampling: Sampling
+
+    @property
+    def rewards(self) -> RewardSettings:
+        return RewardSettings()
+
+    @property
+    def occlusion(self) -> bool:
+        return True
+
+    @property
+    def reuse_tree(self) -> bool:
+        return False
+
+    def say(self, message: str) -> None:
+        """Report progress (``stalm solve`` prints it)."""
+        if self.progress is not None:
+            self.progress(message)
+
+    @abstractmethod
+    def start(self, trial: Trial) -> Decider:
+        """The method's decisions for a trial that starts now."""
+
+    def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
+        """Plan and execute until the goal, the horizon or the time budget (None: the
+        problem's), in a simulator of the trial's own that is always closed.
+
+        Set-up (the scene, the domain, the predicate engine, the method's start) is the
+        trial's first phase, 'setup', inside its deadline: once the deadline has passed, no
+        further set-up step runs (the scene stops between two objects) and the trial ends as
+        'timeout'."""
+        seed = check_seed(seed)
+        time_budget_s = check_time_budget(time_budget_s)
+        episode = Episode.begin(problem, time_budget_s)
+        try:
+            with episode.clock.timed("setup"):
+                domain = Domain(
+                    problem,
+                    Sim(problem.spec, stop=episode.out_of_time),
+                    sampler_settings=self.sampling.samplers,
+                    reward_settings=self.rewards,
+                )
+        except SceneAbandoned:
+            self.say("the deadline passed while the scene was built")
+            return episode.finish(None, self.name, seed, "timeout")
+        try:
+            with episode.clock.timed("setup"):
+                trial, decider = self._set_up(domain, episode, seed)
+            termination = "timeout" if decider is None else run(trial, decider)
+            return episode.finish(
+                domain,
+                self.name,
+                seed,
+                termination,
+                simulations=trial.simulations,
+                replans=trial.replans,
+                details={} if decider is None else decider.details(),
+            )
+        finally:
+            domain.close()
+
+    def _set_up(self, domain: Domain, episode: Episode, seed: int) -> tuple[Trial, Decider | None]:
+        """The trial and the method's decisions; no decisions when the deadline passed while
+        the scene was built (then the method is not started at all)."""
+        engine = PredicateEngine(
+            episode.problem,
+            domain.sim,
+            domain.base_planner,
+            self.sampling.predicates,
+            occlusion=self.occlusion,
+        )
+        trial = Trial(
+            domain,
+            episode,
+            PredicateMemo(engine, episode.clock, episode.out_of_time),
+            np.random.default_rng(seed),
+            seed,
+            progress=self.progress,
+            reuse_tree=self.reuse_tree,
+        )
+        if episode.out_of_time():
+            trial.say("the deadline passed while the trial was set up")
+            return trial, None
+        return trial, self.start(trial)
+
+
+class MethodSettings(Protocol):
+    """What a method's own settings say about the trial (STaLM's, UCT's, LLM-MCTS's)."""
+
+    @property
+    def rewards(self) -> RewardSettings: ...
+
+    @property
+    def occlusion_predicates(self) -> bool: ...
+
+    @property
+    def reuse_tree(self) -> bool: ...
+
+
+class ConfiguredPlanner(OnlinePlanner):
+    """An online planner whose ``settings`` give R's constants, the occlusion predicates and
+    tree reuse, read here once for every method configured that way."""
+
+    settings: MethodSettings
+
+    @property
+    def rewards(self) -> RewardSettings:
+        return self.settings.rewards
+
+    @property
+    def occlusion(self) -> bool:
+        return self.settings.occlusion_predicates
+
+    @property
+    def reuse_tree(self) -> bool:
+        return self.settings.reuse_tree
+
+
+def run(trial: Trial, decider: Decider) -> str:
+    """The online loop: decide, execute, until a stop reason or a terminating decision.
+
+    A predicate computation the trial's deadline cut short (:exc:`DeadlinePassed`, raised
+    from wherever a decision needed predicates) ends the trial as 'timeout'; what was
+    executed before stays the trial's plan."""
+    try:
+        while (termination := trial.episode.stop_reason(trial.domain)) is None:
+            decision = decider.decide()
+            if isinstance(decision, str):
+                return decision
+            for action in decision:
+                trial.execute(action)
+    except DeadlinePassed:
+        trial.say("the deadline passed while predicates were computed")
+        return "timeout"
+    return termination
