@@ -27,18 +27,14 @@ commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
 
 
-def check_solve_numbers(
-    seed: int, time_budget: float | None, sims: int | None, batch: int | None
-) -> None:
-    """Numbers a solve cannot run with, as one StalmError naming the option."""
+def check_solve_numbers(seed: int, time_budget: float | None) -> None:
+    """Numbers a solve cannot run with, as one StalmError naming the option, before the
+    problem is loaded. ``--sims`` and ``--batch`` are checked where their keys are, by the
+    settings tree, whose error names the option too."""
     from stalm.trial.result import check_seed, check_time_budget
 
     check_seed(seed, "--seed")  # the API's own checks: the same words (issue 30)
     check_time_budget(time_budget, "--time-budget")
-    if sims is not None and sims < 1:
-        raise StalmError(f"--sims (N_budget) must be at least 1, got {sims}")
-    if batch is not None and batch < 1:
-        raise StalmError(f"--batch (N_batch) must be at least 1, got {batch}")
 
 
 SYMBOLIC_DEFAULT_NOTE = (
@@ -165,7 +161,7 @@ def solve_command(
     from stalm.planners.registry import planner_entry, resolve
     from stalm.settings.io import to_yaml, with_values
 
-    check_solve_numbers(seed, time_budget, sims, batch)
+    check_solve_numbers(seed, time_budget)
     if not show_settings:
         for path, option in ((json_out, "--json"), (gif, "--gif"), (html, "--html")):
             if path is not None:

@@ -4,9 +4,11 @@ Each real step: compute the state's predicates (Appendix A's cache after the fir
 the proposer for N_batch task plans, Concretize them (Algorithm 2); if one reaches the goal,
 execute it; otherwise run WarmStartedUCT (Algorithms 3–5) warm-started with everything
 Concretize explored; if a simulation reaches the goal, execute that plan, else execute one
-root action and plan again from the resulting state (:class:`~stalm.planners.tree_step.
-SearchStep`, shared with UCT). The trial itself -- one deadline, the executed plan, its replay
-in a fresh scene -- is :class:`~stalm.trial.online.OnlinePlanner`'s.
+root action and plan again from the resulting state. :meth:`StalmStep.decide` is that step,
+top to bottom; the search and its execution rule are
+:meth:`~stalm.planners.tree_step.SearchStep.search`, shared with UCT. The trial itself -- one
+deadline, the executed plan, its replay in a fresh scene -- is
+:class:`~stalm.trial.online.OnlinePlanner`'s.
 
 Beyond the paper, each a setting of the run's settings tree
 (:class:`~stalm.settings.tree.RunSettings`, read through :class:`StalmSettings`) with the
@@ -46,8 +48,8 @@ from stalm.search import (
 )
 from stalm.settings.planner_config import Progress, llm_backend, use_constraint
 from stalm.settings.tree import ProposerKind, RunSettings
-from stalm.trial.online import Sampling, Trial
-from stalm.trial.step_log import proposal_record
+from stalm.trial.online import Decision, Sampling, Trial
+from stalm.trial.step_log import StepRecord, proposal_record
 
 __all__ = ["StalmPlanner", "StalmSettings", "StalmStep"]
 
@@ -67,7 +69,6 @@ class StalmStep(SearchStep):
         self.memory = FeedbackMemory.empty()
         """What the proposer was told (geometric feedback)."""
         self.proposals = 0
-        self.step_records: list[dict[str, object]] = []
         self.injected: list[dict[str, Any]] = []
         """The noisy proposer's plans: what was injected into each, and its Figure 5 kind."""
 
@@ -77,15 +78,33 @@ class StalmStep(SearchStep):
             "proposer": self.proposer.name,
             "proposals": self.proposals,
             "feedback_steps_learned": len(self.memory.steps),
-            "steps": self.step_records,
         }
         if isinstance(self.proposer, NoisyProposer):
             details["noise"] = {**self.proposer.describe(), "plans": self.injected}
         return details
 
-    def propose(self) -> tuple[list[ConcretePlan], tuple[Action, ...] | None]:
+    def decide(self) -> Decision:
+        """Algorithm 1's loop body: task plans for the current state, concretized; a plan
+        that reached the goal is executed whole, else WarmStartedUCT from the current state,
+        warm-started with what Concretize grounded, decides what to execute."""
+        record = self.begin()
+        plans, solution = self.propose(record)
+        if solution is not None:
+            record.decision = "concretize_goal"
+            to_execute = solution
+        elif self.trial.out_of_time():
+            record.decision = "timeout"
+            return "timeout"
+        else:
+            to_execute = self.without_goal_plan(plans, record)
+        record.executed = len(to_execute)
+        # nothing feasible found (an empty plan): the loop asks again from the same state
+        return to_execute
+
+    def propose(self, record: StepRecord) -> tuple[list[ConcretePlan], tuple[Action, ...] | None]:
         """Task plans from the proposer, concretized; with feedback, ask again (at most
-        ``feedback_rounds`` times) while the proposer offers plans not yet tried in this step."""
+        ``feedback_rounds`` times) while the proposer offers plans not yet tried in this step.
+        Each round's plans go into ``record``."""
         trial, proposer, settings = self.trial, self.proposer, self.settings
         episode, domain, state, done = trial.episode, trial.domain, trial.state, trial.done
         trial.say(f"step {done}: predicates")
@@ -140,9 +159,10 @@ class StalmStep(SearchStep):
                 self.injected += injected_records(
                     done, round_, proposal.injected, concrete.plans, predicates.literals
                 )
-            self._step["proposals"].append(
-                proposal_record(round_, len(feedback), concrete.plans, predicates.literals)
+            round_entry = proposal_record(
+                round_, len(feedback), concrete.plans, predicates.literals
             )
+            record.proposals.append(round_entry)
             plans.extend(concrete.plans)
             if concrete.success and concrete.solution is not None:
                 return plans, concrete.solution
@@ -150,7 +170,7 @@ class StalmStep(SearchStep):
                 break
             learned = self.memory.learn(failed_steps(episode.problem, concrete.plans))
             refuted = self.memory.observe(grounded_steps(episode.problem, concrete.plans))
-            self._record_round(done, round_, concrete, learned, refuted)
+            round_entry.update(feedback_round_record(concrete, learned, refuted))
             fresh = {plan.task_plan.actions for plan in concrete.plans} - tried
             tried |= fresh
             # ask again while the proposer still comes up with plans not tried in this step
@@ -159,32 +179,30 @@ class StalmStep(SearchStep):
                 break
         return plans, None
 
-    def search(self, plans: list[ConcretePlan]) -> tuple[Action, ...]:
-        """The search (:meth:`SearchStep.search`); with feedback, the picks and placements its
-        simulations found feasible then refute the rules that forbid them."""
-        chosen = super().search(plans)
+    def without_goal_plan(
+        self, plans: list[ConcretePlan], record: StepRecord
+    ) -> tuple[Action, ...]:
+        """No task plan reached the goal: the warm-started search decides
+        (:meth:`SearchStep.search`); with feedback, the picks and placements its simulations
+        found feasible then refute the rules that forbid them."""
+        chosen = self.search(plans, record)
         tree = self.trial.tree
         if self.settings.feedback and tree is not None:
             refuted = self.memory.observe(grounded_in_tree(self.trial.episode.problem, tree))
-            self._step["rules_refuted_by_tree"] = refuted
+            record.rules_refuted_by_tree = refuted
         return chosen
 
-    def _record_round(
-        self, done: int, round_: int, concrete: ConcretizeResult, learned: int, refuted: int
-    ) -> None:
-        """One feedback round in ``details['steps']``. ``facts_learned`` counts the lessons
-        (failed steps and rules) the round taught that were not known before, as
-        :meth:`FeedbackMemory.learn` returns them; a rule adds no PDDL fact of its own."""
-        self.step_records.append(
-            {
-                "step": done,
-                "round": round_,
-                "plans": len(concrete.plans),
-                "failures": [kind for _, kind in concrete.failures],
-                "facts_learned": learned,
-                "rules_refuted": refuted,
-            }
-        )
+
+def feedback_round_record(concrete: ConcretizeResult, learned: int, refuted: int) -> dict[str, Any]:
+    """What a feedback round taught, added to its proposal's entry of the step log:
+    ``facts_learned`` counts the lessons (failed steps and rules) that were not known before,
+    as :meth:`FeedbackMemory.learn` returns them (a rule adds no PDDL fact of its own), and
+    ``rules_refuted`` the rules the round's grounded steps refuted."""
+    return {
+        "failures": [kind for _, kind in concrete.failures],
+        "facts_learned": learned,
+        "rules_refuted": refuted,
+    }
 
 
 class StalmPlanner(TreePlanner):

@@ -14,13 +14,16 @@ from stalm.planners.stalm import StalmPlanner, StalmStep, proposer_for
 from stalm.search import ConcretePlan
 from stalm.settings.planner_config import Progress
 from stalm.settings.tree import RunSettings
+from stalm.trial.step_log import StepRecord
 
 
 class NoUctStep(StalmStep):
     """STaLM's step whose decision without a goal plan is the best plan's first action."""
 
-    def without_goal_plan(self, plans: list[ConcretePlan]) -> tuple[Action, ...]:
-        self._step["decision"] = "best_prefix"
+    def without_goal_plan(
+        self, plans: list[ConcretePlan], record: StepRecord
+    ) -> tuple[Action, ...]:
+        record.decision = "best_prefix"
         return first_action_of_best_prefix(plans)
 
 

@@ -1,10 +1,11 @@
 """One real step of the tree planners: STaLM, STaLM w/o UCT, UCT and UCT-with-Hcount.
 
-These four run the same step (Algorithm 1's loop body): get task plans and Concretize them
-(STaLM's part, :meth:`SearchStep.propose`; none for UCT), execute a plan that reached the goal,
-and otherwise run (warm-started) UCT from the current state and execute what the execution
-rule chooses (:meth:`SearchStep.search`; STaLM w/o UCT takes the best plan's first action
-instead). :class:`SearchStep` is that step and its record (:mod:`stalm.trial.step_log`);
+These four end a real step alike: without a plan that reached the goal, they run (warm-started)
+UCT from the current state and execute what the execution rule chooses
+(:meth:`SearchStep.search`; STaLM w/o UCT takes the best plan's first action instead). UCT's
+step is only that (:meth:`SearchStep.decide`); STaLM's first gets task plans and Concretizes
+them (:meth:`stalm.planners.stalm.StalmStep.decide`). Each step fills a record of what it
+did (:class:`~stalm.trial.step_log.StepRecord`). :class:`SearchStep` is the shared step;
 :class:`StalmSettings` what it reads of the run's settings tree, which holds the paper's values
 and what this implementation adds:
 
@@ -28,7 +29,7 @@ from stalm.domain.params import Action
 from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
 from stalm.settings.tree import ExecutionRule, RunSettings
 from stalm.trial.online import ConfiguredPlanner, Decision, Trial
-from stalm.trial.step_log import tree_record, warm_edges
+from stalm.trial.step_log import StepRecord, tree_record, warm_edges
 from stalm.world.state import State
 
 
@@ -118,41 +119,36 @@ class TreePlanner(ConfiguredPlanner):
 
 
 class SearchStep:
-    """The real steps of one trial of a tree planner (see the module docstring)."""
+    """UCT's real step, and the search every tree planner's step ends in (see the module
+    docstring). Each step's :class:`StepRecord` is made by :meth:`begin` and handed to the
+    parts of the step that fill it in."""
 
     def __init__(self, trial: Trial, settings: StalmSettings, policies: SearchPolicies) -> None:
         self.trial = trial
         self.settings = settings
         self.policies = policies
-        self.step_log: list[dict[str, Any]] = []
+        self.step_log: list[StepRecord] = []
         """Per real step: the task plans and their fate, the tree, the decision
         (:mod:`stalm.trial.step_log`)."""
-        self._step: dict[str, Any] = {}
-        """The current step's entry of ``step_log``."""
+
+    def begin(self) -> StepRecord:
+        """A new real step: counted, and its record added to the log."""
+        self.trial.replans += 1
+        record = StepRecord(self.trial.done)
+        self.step_log.append(record)
+        return record
 
     def decide(self) -> Decision:
-        trial = self.trial
-        trial.replans += 1
-        self._step = {"step": trial.done, "proposals": [], "tree": None}
-        self.step_log.append(self._step)
-        plans, solution = self.propose()
-        if trial.out_of_time() and solution is None:
-            self._step["decision"] = "timeout"
+        """UCT's step: search from the current state, execute what the execution rule
+        chooses."""
+        record = self.begin()
+        if self.trial.out_of_time():
+            record.decision = "timeout"
             return "timeout"
-        if solution is not None:
-            self._step["decision"] = "concretize_goal"
-        to_execute = solution if solution is not None else self.without_goal_plan(plans)
-        self._step["executed"] = len(to_execute)
+        to_execute = self.search([], record)
+        record.executed = len(to_execute)
         # nothing feasible found (an empty plan): the loop asks again from the same state
         return to_execute
-
-    def propose(self) -> tuple[list[ConcretePlan], tuple[Action, ...] | None]:
-        """Task plans tried from the current state, and a goal plan among them (UCT: none)."""
-        return [], None
-
-    def without_goal_plan(self, plans: list[ConcretePlan]) -> tuple[Action, ...]:
-        """What to execute when no task plan reached the goal: the search's choice."""
-        return self.search(plans)
 
     def details(self) -> dict[str, Any]:
         return {
@@ -168,8 +164,7 @@ class SearchStep:
             "proposals": 0,
             "feedback_steps_learned": 0,
             "reused_root_visits": self.trial.reused_root_visits,
-            "steps": [],
-            "step_log": self.step_log,
+            "step_log": [record.to_json() for record in self.step_log],
         }
 
     def share_end(self) -> float:
@@ -177,9 +172,10 @@ class SearchStep:
         now = time.monotonic()
         return now + self.settings.step_share * max(0.0, self.trial.episode.deadline - now)
 
-    def search(self, plans: list[ConcretePlan]) -> tuple[Action, ...]:
+    def search(self, plans: list[ConcretePlan], record: StepRecord) -> tuple[Action, ...]:
         """The tree's goal plan if the search (warm-started with ``plans``) finds one, else
-        one root action chosen by the execution rule."""
+        one root action chosen by the execution rule; ``record`` is told which, and how the
+        tree looks after the search."""
         trial = self.trial
         domain, state, done = trial.domain, trial.state, trial.done
         search = trial.within_horizon(self.settings.search)
@@ -190,9 +186,9 @@ class SearchStep:
         searches = 0
 
         def decided(how: str) -> None:
-            self._step["decision"] = how
-            self._step["searches"] = searches
-            self._step["tree"] = tree_record(tree, warm_edges(plans), visits_before)
+            record.decision = how
+            record.searches = searches
+            record.tree = tree_record(tree, warm_edges(plans), visits_before)
 
         warm = plans
         while True:

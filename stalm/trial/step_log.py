@@ -8,12 +8,13 @@ the step's search, marking the nodes the warm start put there; and the rule that
 was executed. ``stalm view`` draws these records; they are data, so a script can read them too.
 
 The functions here only read the planner's objects (Concretize's plans, the tree): the
-planner decides when to call them.
+planner decides when to call them, and fills its :class:`StepRecord` with what they return.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 from stalm.domain.outcome import Infeasibility
@@ -40,6 +41,39 @@ DECISIONS: dict[str, str] = {
     "timeout": "the time budget ran out during the step",
 }
 """Why a step executed what it executed, by the ``decision`` a step record holds."""
+
+
+@dataclass
+class StepRecord:
+    """One real step's entry of the log, filled in as the step runs: the step that begins it
+    makes it and hands it to each part of the step that has something to say (the proposals,
+    the search and its decision), so no part writes into another's state. Only the step that
+    owns it changes it; :meth:`to_json` is what the result file keeps."""
+
+    step: int
+    """Real steps executed before this one."""
+    proposals: list[dict[str, Any]] = field(default_factory=list)
+    """Per proposal round: :func:`proposal_record`, with what a feedback round taught."""
+    tree: dict[str, Any] | None = None
+    """The search tree after the step's search (:func:`tree_record`); None without one."""
+    decision: str | None = None
+    """Why the step executed what it did: a key of :data:`DECISIONS`."""
+    searches: int | None = None
+    """Searches run from this root (the 'progress' rule may run several)."""
+    rules_refuted_by_tree: int | None = None
+    """Feedback rules refuted by what the tree's simulations grounded."""
+    executed: int | None = None
+    """Actions executed at the end of the step."""
+
+    def to_json(self) -> dict[str, Any]:
+        """The entry as plain JSON; what a step did not reach is left out (``tree`` is kept
+        as null)."""
+        entry: dict[str, Any] = {"step": self.step, "proposals": self.proposals, "tree": self.tree}
+        for key in ("decision", "searches", "rules_refuted_by_tree", "executed"):
+            value = getattr(self, key)
+            if value is not None:
+                entry[key] = value
+        return entry
 
 
 def action_json(action: object) -> list[str]:

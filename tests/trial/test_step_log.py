@@ -10,10 +10,37 @@ import numpy as np
 
 from stalm.planners.stalm import StalmPlanner
 from stalm.search import SearchSettings, SearchTree, concretize, warm_started_uct
-from stalm.trial.step_log import DECISIONS, task_plan_record, tree_record, warm_edges
+from stalm.trial.step_log import (
+    DECISIONS,
+    StepRecord,
+    task_plan_record,
+    tree_record,
+    warm_edges,
+)
 from stalm.world.problem import Problem
 from tests.planners.doubles import ScriptedSuffixProposer, plain_settings
 from tests.search.synthetic import detour, plan, state
+
+
+def test_a_step_record_keeps_what_the_step_reached_and_leaves_out_the_rest() -> None:
+    timed_out = StepRecord(step=3)
+    timed_out.decision = "timeout"
+    assert timed_out.to_json() == {"step": 3, "proposals": [], "tree": None, "decision": "timeout"}
+    searched = StepRecord(step=0, proposals=[{"round": 0}])
+    searched.tree, searched.decision, searched.searches = {"root_visits": 4}, "progress", 2
+    searched.rules_refuted_by_tree, searched.executed = 0, 1
+    entry = searched.to_json()
+    assert list(entry) == [
+        "step",
+        "proposals",
+        "tree",
+        "decision",
+        "searches",
+        "rules_refuted_by_tree",
+        "executed",
+    ]
+    assert entry["rules_refuted_by_tree"] == 0 and entry["executed"] == 1
+    assert json.loads(json.dumps(entry)) == entry
 
 
 def test_a_failed_plan_records_its_failed_step_kind_reason_and_the_warm_tree() -> None:

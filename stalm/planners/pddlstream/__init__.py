@@ -24,7 +24,5 @@ __all__ = ["AdaptiveSettings", "PDDLStreamPlanner", "build_pddlstream_adaptive"]
 def build_pddlstream_adaptive(
     settings: RunSettings, progress: Callable[[str], None] | None
 ) -> Planner:
-    """The registry's builder. Of the settings tree only ψ's (``samplers``, which its streams
-    draw with) applies: the planner uses no language model and no search tree, and its own
-    settings are PDDLStream's (:class:`AdaptiveSettings`)."""
-    return PDDLStreamPlanner(progress=progress, samplers=settings.samplers)
+    """The registry's builder (what :class:`PDDLStreamPlanner` reads of the tree, it says)."""
+    return PDDLStreamPlanner(settings, progress)

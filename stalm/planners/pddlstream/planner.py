@@ -20,7 +20,6 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -37,6 +36,7 @@ from stalm.planners.pddlstream.knowledge import Knowledge
 from stalm.planners.pddlstream.pddl_text import Fact, goal_fact
 from stalm.planners.pddlstream.streams import StreamGeometry
 from stalm.planners.pddlstream.values import PoseValue
+from stalm.settings.tree import RunSettings
 from stalm.trial.replay import replay_plan
 from stalm.trial.result import (
     Counters,
@@ -53,14 +53,23 @@ from stalm.world.state import State
 Progress = Callable[[str], None]
 
 
-@dataclass
 class PDDLStreamPlanner:
-    """PDDLStream's adaptive algorithm with Fast Downward, over ψ's samplers as streams."""
+    """PDDLStream's adaptive algorithm with Fast Downward, over ψ's samplers as streams.
 
-    settings: AdaptiveSettings = field(default_factory=AdaptiveSettings)
-    progress: Progress | None = None
-    samplers: SamplerSettings = field(default_factory=SamplerSettings)
-    """ψ's settings, which the streams sample with."""
+    ``settings`` is the run's settings tree, as every planner takes it (None: its defaults);
+    of it only ψ's section (``samplers``, which the streams draw with) applies: the method uses
+    no language model and no search tree. ``adaptive`` holds PDDLStream's own constants
+    (:class:`AdaptiveSettings`), which the tree does not hold."""
+
+    def __init__(
+        self,
+        settings: RunSettings | None = None,
+        progress: Progress | None = None,
+        adaptive: AdaptiveSettings | None = None,
+    ) -> None:
+        self.samplers: SamplerSettings = (settings or RunSettings()).samplers
+        self.adaptive = adaptive or AdaptiveSettings()
+        self.progress = progress
 
     @property
     def name(self) -> str:
@@ -89,7 +98,7 @@ class PDDLStreamPlanner:
     ) -> PlanResult:
         rng = np.random.default_rng(seed)
         state = problem.initial_state
-        adaptive = adaptive_for(domain, problem, self.settings)
+        adaptive = adaptive_for(domain, problem, self.adaptive)
         setup_s = time.monotonic() - start_time  # the scene, the domain and the algorithm's state
         knowledge = adaptive.knowledge
         streams = adaptive.streams
