@@ -112,8 +112,10 @@ class LLMPrior:
     The deadline is checked before each new query: once it has passed, the prior is uniform
     (and not kept) so the running simulation finishes quickly and the search returns; a
     query already under way is never cut off, so a trial can overrun its budget by at most one
-    query. A query answered from the reply cache moves the deadline earlier by the time its
-    replies originally took, as :meth:`Episode.charge` does for the trial.
+    query. ``deadline`` reads the trial's deadline at each check (None: none), so what the
+    trial charges (a query answered from the reply cache moves it earlier by the time its
+    replies originally took, :meth:`Episode.charge`) holds here too, with no copy to keep in
+    step.
     """
 
     def __init__(
@@ -125,7 +127,7 @@ class LLMPrior:
         trial_seed: int,
         samples: int = 5,
         uniform_weight: float = 0.5,
-        deadline: float | None = None,
+        deadline: Callable[[], float] | None = None,
         progress: Progress | None = None,
         on_query: QueryHook | None = None,
         timing: Timing | None = None,
@@ -172,7 +174,7 @@ class LLMPrior:
         """The state's votes, asked for now if needed; None once the deadline has passed."""
         votes = self._votes.get(state)
         if votes is None:
-            if self.deadline is not None and time.monotonic() >= self.deadline:
+            if self._past_deadline():
                 self._stats = replace(
                     self._stats, deadline_fallbacks=self._stats.deadline_fallbacks + 1
                 )
@@ -180,6 +182,13 @@ class LLMPrior:
             votes = self._ask(state, actions)
             self._votes[state] = votes
         return votes
+
+    def _deadline_now(self) -> float | None:
+        return None if self.deadline is None else self.deadline()
+
+    def _past_deadline(self) -> bool:
+        deadline = self._deadline_now()
+        return deadline is not None and time.monotonic() >= deadline
 
     def _ask(self, state: State, actions: tuple[DiscreteAction, ...]) -> tuple[DiscreteAction, ...]:
         """Query the proposer for ``state``; the legal first actions of its plans."""
@@ -193,11 +202,9 @@ class LLMPrior:
         # the episode charges the query's seconds (on_query): none go to the enclosing phase
         with self.timing.timed(None) if self.timing is not None else nullcontext():
             proposal = self.proposer.propose(
-                self.problem, state, literals, self.samples, seed, deadline=self.deadline
+                self.problem, state, literals, self.samples, seed, deadline=self._deadline_now()
             )
         llm_seconds = time.monotonic() - tick
-        if self.deadline is not None:
-            self.deadline -= proposal.original_seconds - proposal.seconds
         if self.on_query is not None:
             self.on_query(proposal)
         legal = set(actions)
@@ -327,7 +334,7 @@ class LlmMctsSteps:
             trial_seed=trial.seed,
             samples=settings.samples,
             uniform_weight=settings.uniform_weight,
-            deadline=trial.episode.deadline,
+            deadline=lambda: trial.episode.deadline,
             progress=planner.progress,
             on_query=trial.episode.record_query,
             timing=trial.episode.clock,
@@ -350,7 +357,6 @@ class LlmMctsSteps:
             prior.new_tree()
         else:
             prior.keep_only(tree)
-        prior.deadline = trial.episode.deadline
         calls_before = prior.stats.llm_calls
         with trial.phase("tree"):
             result = warm_started_uct(

@@ -29,6 +29,7 @@ from stalm.planners.llm_mcts import (
 from stalm.planners.registry import PlannerConfig, RunSettings, build_planner
 from stalm.proposers.language_model import LLMProposer, Proposal
 from stalm.search import SearchSettings, SearchTree, warm_started_uct
+from stalm.search.puct import uniform_prior
 from stalm.settings.io import with_overrides
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import load_problem
@@ -58,6 +59,19 @@ def _prior(problem, backend, literals=None, seed: int = 0, deadline=None) -> LLM
         trial_seed=seed,
         deadline=deadline,
     )
+
+
+class TrialClockDouble:
+    """Test double of the episode's clock: a deadline that charging a query moves earlier."""
+
+    def __init__(self, deadline: float) -> None:
+        self.deadline = deadline
+
+    def read(self) -> float:
+        return self.deadline
+
+    def record_query(self, proposal: Proposal) -> None:
+        self.deadline -= proposal.original_seconds - proposal.seconds
 
 
 def _moved(state, name: str, dx: float):
@@ -131,10 +145,11 @@ def test_after_the_deadline_the_prior_is_uniform_without_asking(problems, domain
     state = problem.initial_state
     legal = domain_factory("P2").legal_actions(state)
     backend = ScriptedRepliesBackendDouble(MIXED_REPLIES)
-    prior = _prior(problem, backend, deadline=time.monotonic() - 1.0)
+    clock = TrialClockDouble(time.monotonic() - 1.0)
+    prior = _prior(problem, backend, deadline=clock.read)
     assert prior(state, legal) == pytest.approx([0.2] * 5)
     assert backend.requests == [] and prior.stats.deadline_fallbacks == 1
-    prior.deadline = None  # the uniform fallback was not memoised: with time left, it asks
+    clock.deadline = time.monotonic() + 100.0  # the uniform fallback was not memoised: it asks
     assert prior(state, legal)[legal.index(Pick("bottle2"))] == pytest.approx(0.375)
     assert len(backend.requests) == 1
 
@@ -300,26 +315,29 @@ class CachedProposerDouble:
         return Proposal((), calls=1, seconds=0.0, from_cache=True, cached_seconds=5.0)
 
 
-def test_a_query_from_the_cache_is_reported_and_charged_its_original_seconds(
+def test_a_query_from_the_cache_is_charged_its_original_seconds_and_the_prior_sees_it(
     problems, domain_factory
 ) -> None:
+    """The trial charges a cached query's original 5 s (its deadline, 3 s away, passes); the
+    prior reads the trial's deadline, so the next new node is uniform without asking."""
     problem = problems["P2"]
     state = problem.initial_state
     legal = domain_factory("P2").legal_actions(state)
-    recorded: list[Proposal] = []
-    deadline = time.monotonic() + 100.0
+    clock = TrialClockDouble(time.monotonic() + 3.0)
     prior = LLMPrior(
         problem,
         CachedProposerDouble(),
         SymbolicLiteralsDouble(),
         trial_seed=0,
-        deadline=deadline,
-        on_query=recorded.append,
+        deadline=clock.read,
+        on_query=clock.record_query,
     )
     prior.prepare(state, legal)
-    assert [p.original_seconds for p in recorded] == [5.0]
-    assert prior.deadline == pytest.approx(deadline - 5.0)
     assert prior.stats.cached_calls == prior.stats.llm_calls == 1
+    assert clock.deadline < time.monotonic()
+    other = _moved(state, "salter", 0.02)
+    assert prior(other, legal) == pytest.approx(uniform_prior(legal))
+    assert prior.stats.llm_calls == 1 and prior.stats.deadline_fallbacks == 1
 
 
 def _smallest_case(tmp_path: Path):
