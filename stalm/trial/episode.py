@@ -115,7 +115,8 @@ class Episode:
     completion_tokens: int = 0
     queries: list[QueryRecord] = field(default_factory=list)
     memo: PredicateMemo | None = None
-    """The trial's predicates by state (set by the first :meth:`predicates`)."""
+    """The trial's predicates by state, the one store every part of the trial asks
+    (:meth:`keep_predicates`; None until then)."""
     cpu_start: float = field(default_factory=cpu_seconds)
     """:func:`cpu_seconds` when the trial began."""
 
@@ -140,21 +141,22 @@ class Episode:
             return "timeout"
         return None
 
-    def predicates(self, memo: PredicateMemo | PredicateEngine) -> PredicateCache:
-        """The current state's predicates, timed as the 'predicates' phase.
+    def keep_predicates(self, engine: PredicateEngine) -> PredicateMemo:
+        """The trial's predicate memo, computing with ``engine``: timed by this episode's
+        clock as the 'predicates' phase and bounded by its deadline."""
+        self.memo = PredicateMemo(engine, self.clock, self.out_of_time)
+        return self.memo
+
+    def predicates(self) -> PredicateCache:
+        """The current state's predicates, from the trial's memo (:meth:`keep_predicates`).
 
         Computed from scratch once; after that brought forward through every action executed
         since the last call with Appendix A's cached update (equal to a full computation), so
-        a planner asking once per step pays only for what its actions changed. ``memo`` is
-        the trial's (:class:`PredicateMemo`, shared with whatever else needs predicates), or
-        an engine to keep a memo of this episode's own.
+        a planner asking once per step pays only for what its actions changed.
         """
-        if isinstance(memo, PredicateEngine):
-            if self.memo is None or self.memo.engine is not memo:
-                self.memo = PredicateMemo(memo, self.clock, self.out_of_time)
-            memo = self.memo
-        self.memo = memo
-        return memo.along(self.states, self.executed)
+        if self.memo is None:
+            raise RuntimeError("the episode keeps no predicates yet (keep_predicates)")
+        return self.memo.along(self.states, self.executed)
 
     def count_failures(self, concrete: ConcretizeResult) -> None:
         """Add the Figure 5 kinds of the task plans Concretize could not take to the goal.

@@ -65,7 +65,6 @@ class Trial:
 
     domain: Domain
     episode: Episode
-    memo: PredicateMemo
     rng: np.random.Generator
     seed: int
     progress: Progress | None = None
@@ -85,6 +84,13 @@ class Trial:
     @property
     def state(self) -> State:
         return self.episode.state
+
+    @property
+    def memo(self) -> PredicateMemo:
+        """The trial's predicates by state (the episode keeps them)."""
+        if self.episode.memo is None:
+            raise RuntimeError("the trial's predicates are not set up")
+        return self.episode.memo
 
     @property
     def done(self) -> int:
@@ -114,7 +120,7 @@ class Trial:
 
     def predicates(self) -> PredicateCache:
         """The current state's predicates, from the trial's memo."""
-        return self.episode.predicates(self.memo)
+        return self.episode.predicates()
 
     def tree_at(self, state: State) -> SearchTree:
         """The tree rooted at ``state``: the one kept from the last step if it is rooted
@@ -230,10 +236,10 @@ class OnlinePlanner(ABC):
             self.sampling.predicates,
             occlusion=self.occlusion,
         )
+        episode.keep_predicates(engine)
         trial = Trial(
             domain,
             episode,
-            PredicateMemo(engine, episode.clock, episode.out_of_time),
             np.random.default_rng(seed),
             seed,
             progress=self.progress,

@@ -107,7 +107,8 @@ def test_p2_plans_that_start_with_an_occluded_pick_count_as_precondition_violati
     )
     with pytest.raises(RuntimeError, match="predicates"):
         episode.count_failures(result)
-    literals = episode.predicates(engine).literals
+    episode.keep_predicates(engine)
+    literals = episode.predicates().literals
     assert L("PickOccludedBy", ("salter", "bottle2")) in literals
     assert figure5_kinds(result, literals) == (
         "precondition_violation",
