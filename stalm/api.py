@@ -19,13 +19,15 @@ from __future__ import annotations
 
 from stalm.domain.actions import DiscreteAction, Open, Pick, Place
 from stalm.errors import StalmError
-from stalm.planners.registry import PlannerConfig, RunSettings, build_planner, planners
+from stalm.planners.registry import build_planner, planners
 from stalm.planners.stalm import StalmPlanner
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.feedback import FailedStep
 from stalm.proposers.language_model import FeedbackProposer, LLMProposer, Proposal, TaskPlanProposer
 from stalm.proposers.noisy import NoisyProposer
 from stalm.settings.io import with_overrides, with_values
+from stalm.settings.planner_config import PlannerConfig
+from stalm.settings.tree import RunSettings
 from stalm.trial.replay import ReplayReport, replay_plan
 from stalm.trial.result import PlanResult
 from stalm.world.problem import Problem, load_problem

@@ -20,9 +20,9 @@ from stalm.errors import StalmError
 from stalm.experiments.noise_report import noisy_label
 from stalm.experiments.trials import Arm, TrialSpec, check_problem_name, derive_seed
 from stalm.llm.prompt import PromptOptions
-from stalm.planners.registry import PROPOSING, RunSettings, planner_entry
+from stalm.planners.registry import PROPOSING, planner_entry
 from stalm.settings.io import with_values
-from stalm.settings.tree import ProposerSection
+from stalm.settings.tree import ProposerSection, RunSettings
 
 EXPERIMENTS = ("table2", "table3", "table4", "figure5", "scale", "additions")
 SCALE_PLANNERS = ("stalm-symbolic", "uct", "pddlstream-adaptive")

@@ -26,9 +26,10 @@ from pathlib import Path
 from typing import Any
 
 from stalm.errors import StalmError
-from stalm.planners.registry import PlannerConfig, RunSettings, build_planner, resolve
+from stalm.planners.registry import build_planner, resolve
 from stalm.settings.io import changed, to_dict
-from stalm.settings.tree import FLAT_NAMES, with_budget
+from stalm.settings.planner_config import PlannerConfig
+from stalm.settings.tree import FLAT_NAMES, RunSettings, with_budget
 from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
 
 RECORD_VERSION = 1

@@ -17,23 +17,18 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from stalm.errors import StalmError
-from stalm.settings.planner_config import PlannerConfig, Progress, llm_backend, use_constraint
+from stalm.settings.planner_config import PlannerConfig, Progress
 from stalm.settings.tree import RunSettings
 from stalm.trial.result import Planner
 from stalm.world.problem import Problem
 
 __all__ = [
     "PROPOSING",
-    "PlannerConfig",
     "PlannerEntry",
-    "Progress",
-    "RunSettings",
     "build_planner",
-    "llm_backend",
     "planner_entry",
     "planners",
     "resolve",
-    "use_constraint",
 ]
 
 Builder = Callable[[RunSettings, Progress | None], Planner]

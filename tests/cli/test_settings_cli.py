@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from stalm.planners.registry import RunSettings
 from stalm.settings.io import from_mapping
+from stalm.settings.tree import RunSettings
 from tests.cli.test_bad_input import one_error_line
 from tests.cli_runner import run_cli
 

@@ -26,11 +26,13 @@ from stalm.planners.llm_mcts import (
     llm_mcts_policies,
     state_request_seed,
 )
-from stalm.planners.registry import PlannerConfig, RunSettings, build_planner
+from stalm.planners.registry import build_planner
 from stalm.proposers.language_model import LLMProposer, Proposal
 from stalm.search import SearchSettings, SearchTree, warm_started_uct
 from stalm.search.puct import uniform_prior
 from stalm.settings.io import with_overrides
+from stalm.settings.planner_config import PlannerConfig
+from stalm.settings.tree import RunSettings
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import load_problem
 from stalm.world.state import ObjectPose

@@ -23,8 +23,8 @@ from stalm.planners.pddlstream.execute import learn_from
 from stalm.planners.pddlstream.pddl_text import DOMAIN_PDDL
 from stalm.planners.pddlstream.planner import adaptive_for, fluents
 from stalm.planners.pddlstream.values import PoseValue, is_optimistic
-from stalm.planners.registry import PlannerConfig
 from stalm.proposers.fast_downward import translate_task
+from stalm.settings.planner_config import PlannerConfig
 from stalm.trial.replay import replay_plan
 from stalm.world.problem import Problem
 from stalm.world.state import ObjectPose

@@ -39,7 +39,8 @@ import pytest
 import stalm.llm.backends as backends
 from stalm.domain.actions import DiscreteAction
 from stalm.llm.prompt import PromptOptions
-from stalm.planners.registry import PlannerConfig, build_planner
+from stalm.planners.registry import build_planner
+from stalm.settings.planner_config import PlannerConfig
 from stalm.world.problem import Problem, load_problem
 from tests.golden import assert_matches, read, write
 from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply

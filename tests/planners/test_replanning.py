@@ -10,8 +10,9 @@ from stalm.domain.actions import Open, Pick, Place
 from stalm.llm.feedback_prompt import FailedPlan, feedback_text, format_plan, with_feedback
 from stalm.llm.prompt import Prompt
 from stalm.planners.iterative_replanning import IterativeReplanningPlanner, failed_plan
-from stalm.planners.registry import PlannerConfig, build_planner
+from stalm.planners.registry import build_planner
 from stalm.search import TaskPlan, concretize
+from stalm.settings.planner_config import PlannerConfig
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import Problem
 from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply

@@ -14,7 +14,7 @@ from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.llm.backends.base import LLMRequest
 from stalm.llm.saycan_prompt import NO_HISTORY, saycan_prompt, task_instruction
-from stalm.planners.registry import PlannerConfig, build_planner
+from stalm.planners.registry import build_planner
 from stalm.planners.saycan import (
     DecisionTally,
     EpSayCanPlanner,
@@ -25,6 +25,7 @@ from stalm.planners.saycan import (
     saycan_scores,
 )
 from stalm.predicates.literals import GroundLiteral
+from stalm.settings.planner_config import PlannerConfig
 from stalm.trial.episode import Episode
 from stalm.trial.replay import replay_result_json
 from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply

@@ -12,7 +12,7 @@ import yaml
 from stalm.domain.mdp import RewardSettings
 from stalm.errors import StalmError
 from stalm.llm.prompt import PromptOptions
-from stalm.planners.registry import PlannerConfig, RunSettings, build_planner, resolve
+from stalm.planners.registry import build_planner, resolve
 from stalm.planners.stalm import StalmSettings
 from stalm.search import SearchSettings
 from stalm.settings.io import (
@@ -24,6 +24,8 @@ from stalm.settings.io import (
     with_file,
     with_overrides,
 )
+from stalm.settings.planner_config import PlannerConfig
+from stalm.settings.tree import RunSettings
 
 MODEL = "http://127.0.0.1:9/v1#m"
 """A server nothing listens on: building a planner never contacts it."""
