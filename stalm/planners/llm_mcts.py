@@ -42,9 +42,9 @@ from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.proposers.language_model import LLMProposer, Proposal, TaskPlanProposer
 from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
-from stalm.search.mdp import SearchMDP
 from stalm.search.policies import ValueFunction
 from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
+from stalm.search.search_mdp import SearchMDP
 from stalm.search.tree import Edge, SearchTree
 from stalm.settings.planner_config import Progress, llm_backend, use_constraint
 from stalm.settings.tree import DEFAULT_SIMS, RunSettings

@@ -35,7 +35,7 @@ import numpy as np
 from stalm.domain.actions import DiscreteAction, Place
 from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action
-from stalm.search.mdp import SearchMDP
+from stalm.search.search_mdp import SearchMDP
 from stalm.search.transition import PRECONDITION, CountingMDP, Kappa, WorkCounts, apply, draw
 from stalm.world.state import State
 

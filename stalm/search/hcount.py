@@ -30,7 +30,7 @@ from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import PredicateMemo
 from stalm.search import LeafValue
-from stalm.search.mdp import SearchMDP
+from stalm.search.search_mdp import SearchMDP
 from stalm.search.tree import Edge
 from stalm.world.problem import Problem
 from stalm.world.relations import at_position

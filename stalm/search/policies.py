@@ -20,7 +20,7 @@ import numpy as np
 
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
-from stalm.search.mdp import SearchMDP
+from stalm.search.search_mdp import SearchMDP
 from stalm.search.settings import SearchSettings
 from stalm.search.transition import apply, draw
 from stalm.search.tree import ChildStats, ContinuousNodeView, DiscreteNodeView, Edge, KappaView

@@ -19,7 +19,7 @@ import numpy as np
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action
-from stalm.search.mdp import SearchMDP
+from stalm.search.search_mdp import SearchMDP
 from stalm.world.state import State
 
 Kappa = Action | Infeasibility

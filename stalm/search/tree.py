@@ -34,7 +34,7 @@ from typing import Any
 
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.outcome import Infeasibility, Outcome
-from stalm.search.mdp import SearchMDP
+from stalm.search.search_mdp import SearchMDP
 from stalm.search.transition import Kappa
 from stalm.world.state import State
 

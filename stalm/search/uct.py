@@ -25,8 +25,8 @@ import numpy as np
 from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action
 from stalm.search.concretize import ConcretePlan
-from stalm.search.mdp import SearchMDP
 from stalm.search.policies import SearchPolicies
+from stalm.search.search_mdp import SearchMDP
 from stalm.search.settings import SearchSettings
 from stalm.search.transition import CountingMDP, apply, draw
 from stalm.search.tree import Edge, SearchTree, TreeStats

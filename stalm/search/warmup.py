@@ -23,8 +23,8 @@ import numpy as np
 from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action
 from stalm.search.concretize import ConcretePlan
-from stalm.search.mdp import SearchMDP
 from stalm.search.policies import ValueFunction
+from stalm.search.search_mdp import SearchMDP
 from stalm.search.tree import Edge, SearchTree
 
 

@@ -1,6 +1,6 @@
 """Test doubles for the search: tiny MDPs whose every number can be worked out by hand.
 
-They implement the :class:`~stalm.search.mdp.SearchMDP` methods over their own small frozen
+They implement the :class:`~stalm.search.search_mdp.SearchMDP` methods over their own small frozen
 types (a named state, a named discrete action, an integer κ), which stand in for the real
 ``State``, ``DiscreteAction`` and ``Action``: the search only hashes and compares them. The
 ``cast`` helpers below are the one place the stand-ins are passed off as the real types.
@@ -19,7 +19,7 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action
 from stalm.search.concretize import TaskPlan
-from stalm.search.mdp import SearchMDP
+from stalm.search.search_mdp import SearchMDP
 from stalm.world.state import State
 
 INFEASIBLE_REWARD = -6.0
