@@ -38,8 +38,9 @@ RECORD_VERSION = 1
 def derive_seed(master_seed: int, problem: str, trial: int) -> int:
     """A trial's seed: a stable hash of the master seed, the problem and the trial index.
 
-    Below 2**20, so that planners deriving per-step seeds (seed·1000 + step) stay inside the
-    signed 32-bit range that llama.cpp and Fast Downward accept.
+    Below 2**20, so that STaLM's query seeds (:func:`stalm.trial.query_seeds.
+    stalm_proposal_seed`, seed·1000 + proposal) stay inside the signed 32-bit range that
+    llama.cpp and Fast Downward accept.
     """
     digest = hashlib.sha256(f"{master_seed}/{problem}/{trial}".encode()).digest()
     return int.from_bytes(digest[:4], "big") & 0xFFFFF

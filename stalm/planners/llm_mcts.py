@@ -26,8 +26,6 @@ them, the same search.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import time
 from collections.abc import Callable, Iterable
 from contextlib import nullcontext
@@ -49,6 +47,7 @@ from stalm.search.tree import Edge, SearchTree
 from stalm.settings.planner_config import Progress, llm_backend, use_constraint
 from stalm.settings.tree import DEFAULT_SIMS, RunSettings
 from stalm.trial.online import ConfiguredPlanner, Decision, Sampling, Trial
+from stalm.trial.query_seeds import state_request_seed
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -57,18 +56,6 @@ QueryHook = Callable[[Proposal], None]
 
 LLM_MCTS_BUDGET = DEFAULT_SIMS["llm-mcts"]
 """N_budget of LLM-MCTS in the paper's §4.2."""
-
-
-def state_request_seed(trial_seed: int, state: State) -> int:
-    """The backend seed for the prior at ``state`` in trial ``trial_seed``.
-
-    A SHA-256 of the state's JSON form (coordinates are quantised, keys sorted) is stable across
-    processes and machines, unlike ``hash()``; the value stays below 2**31 so every backend and
-    the reply cache's integer column accept it (and ``seed + 4`` for the fifth sample).
-    """
-    text = json.dumps(["llm-mcts-prior", trial_seed, state.to_json()], sort_keys=True)
-    digest = hashlib.sha256(text.encode()).digest()
-    return int.from_bytes(digest[:4], "little") >> 1
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,7 @@ from stalm.search import (
 from stalm.settings.planner_config import Progress, llm_backend, use_constraint
 from stalm.settings.tree import ProposerKind, RunSettings
 from stalm.trial.online import Decision, Sampling, Trial
+from stalm.trial.query_seeds import stalm_proposal_seed
 from stalm.trial.step_log import StepRecord, proposal_record
 
 __all__ = ["StalmPlanner", "StalmSettings", "StalmStep"]
@@ -115,7 +116,7 @@ class StalmStep(SearchStep):
         for round_ in range(settings.feedback_rounds if settings.feedback else 1):
             feedback = self.memory.holding_in(state) if settings.feedback else ()
             trial.say(f"step {done}: asking {proposer.name} for task plans")
-            query_seed = trial.seed * 1000 + self.proposals
+            query_seed = stalm_proposal_seed(trial.seed, self.proposals)
             if feedback:
                 proposal = cast(FeedbackProposer, proposer).propose(
                     episode.problem,

@@ -24,7 +24,6 @@ from stalm.planners.llm_mcts import (
     LLMPrior,
     build_llm_mcts,
     llm_mcts_policies,
-    state_request_seed,
 )
 from stalm.planners.registry import build_planner
 from stalm.proposers.language_model import LLMProposer, Proposal
@@ -33,6 +32,7 @@ from stalm.search.puct import uniform_prior
 from stalm.settings.io import with_overrides
 from stalm.settings.planner_config import PlannerConfig
 from stalm.settings.tree import RunSettings
+from stalm.trial.query_seeds import state_request_seed
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import load_problem
 from stalm.world.state import ObjectPose
