@@ -45,6 +45,13 @@ ARM_JOINTS = tuple(range(7))
 ARM_JOINT_LIST = list(ARM_JOINTS)
 
 
+def _penetrates(body: int, other: int, client: int) -> bool:
+    """Does ``body`` penetrate ``other`` deeper than the tolerance, by their closest points
+    (computed afresh: no contact manifold kept from earlier queries)?"""
+    points = p.getClosestPoints(body, other, 0.0, physicsClientId=client)
+    return any(point[8] < -PENETRATION_TOLERANCE for point in points)
+
+
 class Sim:
     """A PyBullet DIRECT client holding one problem's scene.
 
@@ -258,7 +265,16 @@ class Sim:
         return (self.bodies.base, self.bodies.arm, self.bodies.objects[self._held.obj])
 
     def contacts_of(self, bodies: Iterable[int], ignore: Iterable[int] = ()) -> set[int]:
-        """Bodies penetrating any of ``bodies`` now (excluding each other and ``ignore``)."""
+        """Bodies penetrating any of ``bodies`` now (excluding each other and ``ignore``).
+
+        The world's contact manifold finds the pairs that may penetrate; each pair whose
+        manifold depth reaches half the tolerance is then decided by the pairwise query of
+        :meth:`touches`. Bullet's manifold depths are approximate (they differ from the
+        closest points' by some 1e-5 m), so a pair within that of the tolerance could be a
+        contact to one query and none to the other; deciding every pair by the same exact
+        query makes a contact mean one thing to every caller, whichever query found the
+        pair (the batched engine of :mod:`stalm.motion.colliders` confirms with
+        :meth:`touches` too)."""
         c = self.client
         self.collision_checks += 1
         group = set(bodies)
@@ -266,13 +282,16 @@ class Sim:
         p.performCollisionDetection(physicsClientId=c)
         skip = group | set(ignore)
         hits: set[int] = set()
+        decided: set[tuple[int, int]] = set()
         for body in group:
             for contact in p.getContactPoints(bodyA=body, physicsClientId=c):
                 other = contact[2]
-                if other in skip or other in hits:
+                if other in skip or other in hits or (body, other) in decided:
                     continue
-                if contact[8] < -PENETRATION_TOLERANCE:
-                    hits.add(other)
+                if contact[8] < -PENETRATION_TOLERANCE / 2:
+                    decided.add((body, other))
+                    if _penetrates(body, other, c):
+                        hits.add(other)
         return hits
 
     def _query(self, bodies: frozenset[int]) -> None:
@@ -302,11 +321,7 @@ class Sim:
         """Does any of ``bodies`` penetrate ``other``? A pairwise query: much cheaper than a
         whole-world :meth:`contacts_of` when only one obstacle matters."""
         self.collision_checks += 1
-        for body in bodies:
-            points = p.getClosestPoints(body, other, 0.0, physicsClientId=self.client)
-            if any(point[8] < -PENETRATION_TOLERANCE for point in points):
-                return True
-        return False
+        return any(_penetrates(body, other, self.client) for body in bodies)
 
     def robot_contacts(self, ignore: Iterable[int] = ()) -> set[int]:
         """Bodies the robot (with what it holds) penetrates in its current configuration."""
