@@ -163,6 +163,8 @@ class StalmStep(SearchStep):
             round_entry = proposal_record(
                 round_, len(feedback), concrete.plans, predicates.literals
             )
+            if proposal.set_aside:
+                round_entry["set_aside"] = list(proposal.set_aside)
             record.proposals.append(round_entry)
             plans.extend(concrete.plans)
             if concrete.success and concrete.solution is not None:
@@ -274,7 +276,10 @@ def proposer_for(settings: RunSettings) -> TaskPlanProposer:
 
 def _plain_proposer(settings: RunSettings, kind: str) -> TaskPlanProposer:
     if kind == "symbolic":
-        return SymbolicProposer(goal_relations_only=settings.proposer.goal_relations_only)
+        return SymbolicProposer(
+            goal_relations_only=settings.proposer.goal_relations_only,
+            break_occlusion_cycles=settings.proposer.break_occlusion_cycles,
+        )
     backend = llm_backend(settings)
     return LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
 

@@ -31,6 +31,7 @@ from stalm.llm.problem_prompt import goal_literals
 from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.feedback import FailedStep
 from stalm.proposers.language_model import Proposal
+from stalm.proposers.occlusion_cycles import without_occlusion_cycles
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -159,6 +160,9 @@ class SymbolicProposer:
     """Ground a relative PLACE only for the goal's own relations (any other object goes *on*
     a region, which covers every spot a relative placement could name): far fewer choices
     and a grounding that grows linearly, not quadratically, with the objects."""
+    break_occlusion_cycles: bool = True
+    """When the abstraction has no plan, plan once more without the pick occlusions that lie
+    on a cycle (:mod:`stalm.proposers.occlusion_cycles`); the proposal names them."""
 
     @property
     def name(self) -> str:
@@ -186,6 +190,36 @@ class SymbolicProposer:
         exact = [step for step in feedback if not step.is_rule]
         rules = [step for step in feedback if step.is_rule]
         base = set(literals) | {fact for step in exact for fact in step.facts}
+        plans, reasons = self._plans(problem, vocabulary, base, rules, n, seed, limit, deadline)
+        set_aside: frozenset[GroundLiteral] = frozenset()
+        if self.break_occlusion_cycles and not plans and not _gave_up(reasons):
+            kept, set_aside = without_occlusion_cycles(base)
+            if set_aside and not _past(deadline):
+                plans, more = self._plans(
+                    problem, vocabulary, set(kept), rules, n, seed, limit, deadline
+                )
+                reasons += more
+        return Proposal(
+            plans=tuple(plans),
+            no_plan=tuple(reasons[:1]) if not plans else (),
+            calls=0,
+            seconds=time.perf_counter() - start,
+            set_aside=tuple(str(lit) for lit in sorted(set_aside)) if plans else (),
+        )
+
+    def _plans(
+        self,
+        problem: Problem,
+        vocabulary: Vocabulary,
+        base: set[GroundLiteral],
+        rules: Sequence[FailedStep],
+        n: int,
+        seed: int,
+        limit: Callable[[], float],
+        deadline: float | None,
+    ) -> tuple[list[tuple[DiscreteAction, ...]], list[str]]:
+        """Up to ``n`` plans on ``base`` and the rules, giving the rules up when they leave
+        no plan (:meth:`_resolve`), and the reasons of the searches that gave none."""
         seeds = [plan_seed(seed, index) for index in range(n)]
         plans, reasons = self._search(problem, vocabulary, base, rules, seeds, limit, deadline)
         if not plans and rules and not _gave_up(reasons):
@@ -200,12 +234,7 @@ class SymbolicProposer:
             plans, reasons = self._resolve(
                 problem, vocabulary, base, rules, n, seed, limit, deadline
             )
-        return Proposal(
-            plans=tuple(plans),
-            no_plan=tuple(reasons[:1]) if not plans else (),
-            calls=0,
-            seconds=time.perf_counter() - start,
-        )
+        return plans, reasons
 
     def _resolve(
         self,

@@ -65,6 +65,10 @@ class Proposal:
     """Per plan, what a degraded proposer did to it on purpose (:mod:`stalm.proposers.noisy`:
     ``clean``, ``inapplicable`` or the Figure 5 kind it injected); empty from every other
     proposer."""
+    set_aside: tuple[str, ...] = ()
+    """The predicate literals the plans were made without, as text: the symbolic proposer's
+    occlusion cycles (:mod:`stalm.proposers.occlusion_cycles`) when the abstraction had no
+    plan with them; empty from every other proposer."""
 
     @property
     def truncated_plans(self) -> int:

@@ -212,6 +212,10 @@ class ProposerSection:
     (another proposer's plans corrupted on purpose, ``noise``: never a language model)."""
     goal_relations_only: bool = True
     """The symbolic proposer grounds relative placements only for the goal's relations."""
+    break_occlusion_cycles: bool = True
+    """When the predicate abstraction has no plan, the symbolic proposer plans once more
+    without the pick occlusions that lie on a cycle (beyond the paper:
+    :mod:`stalm.proposers.occlusion_cycles`)."""
     noise: NoiseSection = field(default_factory=NoiseSection)
 
     def __post_init__(self) -> None:

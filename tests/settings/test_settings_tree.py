@@ -102,6 +102,12 @@ REACHES = [
     ("execution.search_rounds", 4, "uct", lambda p: p.settings.search_rounds),
     ("execution.reuse_tree", False, "llm-mcts", lambda p: p.reuse_tree),
     ("proposer.goal_relations_only", False, "stalm", lambda p: p.proposer.goal_relations_only),
+    (
+        "proposer.break_occlusion_cycles",
+        False,
+        "stalm",
+        lambda p: p.proposer.break_occlusion_cycles,
+    ),
     ("prompt.ask_challenges", False, "iterative-replanning", lambda p: p.options.ask_challenges),
 ]
 
