@@ -14,12 +14,13 @@ the predicates drew 12).
 
 When the abstraction has no plan, the proposer plans once more without the ``PickOccludedBy``
 literals that lie on a cycle (both ends in one strongly connected component of the graph
-"picking a is occluded by b"): the fewest claims whose removal lets a plan of the abstraction
-free every object that is not ``CannotPick``. Everything else stays, so what hangs behind a
-cycle, and the placements the cycle's objects block, are still planned around. Concretize then
-checks the plan in the geometry: a pick that really is blocked fails there and comes back as
-geometric feedback (:mod:`stalm.proposers.feedback`). ``CannotPick`` and ``CannotPlace`` (no
-motion whatever is moved) are never set aside.
+"picking a is occluded by b"). Without them the pick occlusions form no cycle, so a plan of
+the abstraction can free every object that no ``CannotPick`` object blocks. Every other claim
+stays (not a minimum set: all of a cycle's claims go, not just enough to break it), so what
+hangs behind a cycle, and the placements the cycle's objects block, are still planned
+around. Concretize then checks the plan in the geometry: a pick that really is blocked fails
+there and comes back as geometric feedback (:mod:`stalm.proposers.feedback`). ``CannotPick``
+and ``CannotPlace`` (no motion whatever is moved) are never set aside.
 """
 
 from __future__ import annotations
