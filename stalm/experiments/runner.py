@@ -60,6 +60,8 @@ def run_experiment(
     """Run every unfinished trial of ``specs`` and append its record to ``log``."""
     if workers < 1:
         raise StalmError(f"--workers must be at least 1, got {workers}")
+    if ray_address is None:
+        check_cores(specs, workers)
     todo = pending_specs(specs, log)
     solved = errors = 0
 
@@ -81,6 +83,27 @@ def run_experiment(
     else:
         _run_in_processes(todo, workers, keep)
     return RunSummary(len(specs), len(specs) - len(todo), len(todo), solved, errors)
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its affinity, as ``taskset`` sets it)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def check_cores(specs: Sequence[TrialSpec], workers: int) -> None:
+    """Refuse trials side by side whose predicate processes (``predicates.workers``, each
+    trial's own) would outnumber the cores: they would slow each other down, and a trial's
+    time is what the experiment measures."""
+    cores = usable_cores()
+    for spec in specs:
+        per_trial = spec.arm.config.predicates.workers
+        if per_trial > 1 and workers * per_trial > cores:
+            raise StalmError(
+                f"--workers {workers} with predicates.workers={per_trial} ({spec.arm.label}) "
+                f"would run {workers * per_trial} processes on {cores} cores: lower one of them"
+            )
 
 
 WORKER_STOP_S = 20.0

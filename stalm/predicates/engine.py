@@ -50,7 +50,8 @@ never reads occlusion literals, so nothing else needs them.
 
 from __future__ import annotations
 
-from typing import Protocol
+from collections.abc import Callable, Iterator, Sequence
+from typing import Protocol, TypeVar
 
 from stalm.geometry.directions import RELATIVE_DIRECTIONS
 from stalm.motion.base_motion import BasePlanner
@@ -58,10 +59,12 @@ from stalm.motion.grasps import PITCH_RANGE, YAW_RANGE
 from stalm.motion.manipulation import PARKED
 from stalm.predicates.cache import PredicateCache, forget_object, resweep_near
 from stalm.predicates.deadline import Deadline, DeadlinePassed, check
+from stalm.predicates.forked import forked_map
 from stalm.predicates.goals import goal_region, goal_relation
 from stalm.predicates.literals import SCOPE_PREDICATE, GroundLiteral
 from stalm.predicates.samples import (
     MotionSamples,
+    PickRecord,
     PlacementSample,
     PredicateSettings,
 )
@@ -71,6 +74,9 @@ from stalm.world.relations import direction_between
 from stalm.world.scene import Sim
 from stalm.world.spec import RegionSpec
 from stalm.world.state import State
+
+Item = TypeVar("Item")
+Result = TypeVar("Result")
 
 
 class ActionTuple(Protocol):
@@ -151,17 +157,34 @@ class PredicateEngine:
         if self.settings.relevant_only:
             self._relevant(cache, deadline)  # placements only at the goal
         else:
-            for name, pose in state.poses:
-                check(deadline)
-                cache.picks[name] = self.samples.pick_record(name, pose)
-            self._refresh_grasps(cache)
-            for obj in cache.grasps:
-                for region in self.spec.regions:
-                    cache.placements[(obj, region.name)] = self._placements(
-                        cache, obj, region, deadline
-                    )
+            self._sample_everything(cache, deadline)
         cache.literals = self._derive(cache, deadline)
         return cache
+
+    def _sample_everything(self, cache: PredicateCache, deadline: Deadline | None) -> None:
+        """Every pick, every placement on every region, and the placements beside each
+        reference that no plain placement lands at: independent samples, shared among
+        ``settings.workers`` processes (:mod:`stalm.predicates.forked`)."""
+        state = cache.state
+
+        def pick(name: str) -> PickRecord:
+            check(deadline)
+            return self.samples.pick_record(name, state.pose(name))
+
+        names = [name for name, _ in state.poses]
+        cache.picks.update(zip(names, self._map(pick, names), strict=True))
+        self._refresh_grasps(cache)
+        pairs = [(obj, region) for obj in cache.grasps for region in self.spec.regions]
+        placed = self._map(lambda pair: self._placements(cache, *pair, deadline), pairs)
+        for (obj, region), samples in zip(pairs, placed, strict=True):
+            cache.placements[(obj, region.name)] = samples
+        wanted = sorted(self._targeted_wanted(cache), key=lambda key: key[:3])
+        targeted = self._map(lambda key: self._targeted(cache, *key, deadline), wanted)
+        for (obj, direction, ref, _), samples in zip(wanted, targeted, strict=True):
+            cache.targeted[(obj, direction, ref)] = samples
+
+    def _map(self, function: Callable[[Item], Result], items: Sequence[Item]) -> list[Result]:
+        return forked_map(function, items, self.settings.workers)
 
     def _relevant(self, cache: PredicateCache, deadline: Deadline | None) -> None:
         """Picks of the goal's objects, of what occludes picking them or placing them at their
@@ -317,6 +340,52 @@ class PredicateEngine:
         add_symbolic(self.spec, state, literals)
         return frozenset(literals)
 
+    def _beside(
+        self,
+        cache: PredicateCache,
+        regions_of: dict[str, str],
+        obj: str,
+        region: RegionSpec,
+        samples: tuple[PlacementSample, ...],
+    ) -> Iterator[tuple[str, str, tuple[PlacementSample, ...]]]:
+        """For each reference on ``region`` and each direction: (direction, reference, the
+        plain samples lying there whose motion clears the reference; empty: none does)."""
+        state = cache.state
+        for ref, ref_region in regions_of.items():
+            if ref == obj or ref_region != region.name:
+                continue
+            if cache.relevant is not None and not goal_relation(self.problem, obj, ref):
+                continue
+            ref_pose = state.pose(ref)
+            for direction in RELATIVE_DIRECTIONS:
+                # a motion touching the reference itself says nothing: moving the
+                # reference away undoes the relation (see the module docstring)
+                yield (
+                    direction,
+                    ref,
+                    tuple(
+                        s
+                        for s in samples
+                        if direction_between(region, s.pose, ref_pose) == direction
+                        and ref not in s.motion.hits
+                    ),
+                )
+
+    def _targeted_wanted(self, cache: PredicateCache) -> set[tuple[str, str, str, RegionSpec]]:
+        """The targeted placements :meth:`_derive` will ask for: (object, direction,
+        reference, region) where no plain sample lies beside the reference."""
+        regions_of = add_symbolic(self.spec, cache.state, set())
+        wanted = set()
+        for obj in cache.grasps:
+            for region in self.spec.regions:
+                samples = cache.placements.get((obj, region.name), ())
+                for direction, ref, matching in self._beside(
+                    cache, regions_of, obj, region, samples
+                ):
+                    if not matching and (obj, direction, ref) not in cache.targeted:
+                        wanted.add((obj, direction, ref, region))
+        return wanted
+
     def _derive(self, cache: PredicateCache, deadline: Deadline | None) -> frozenset[GroundLiteral]:
         state = cache.state
         literals: set[GroundLiteral] = set()
@@ -341,26 +410,14 @@ class PredicateEngine:
                 self._place_literals(
                     cache, literals, obstacles, obj, "on", region.name, region, samples
                 )
-                for ref, ref_region in regions_of.items():
-                    if ref == obj or ref_region != region.name:
-                        continue
-                    if cache.relevant is not None and not goal_relation(self.problem, obj, ref):
-                        continue
-                    ref_pose = state.pose(ref)
-                    for direction in RELATIVE_DIRECTIONS:
-                        # a motion touching the reference itself says nothing: moving the
-                        # reference away undoes the relation (see the module docstring)
-                        matching = tuple(
-                            s
-                            for s in samples
-                            if direction_between(region, s.pose, ref_pose) == direction
-                            and ref not in s.motion.hits
-                        )
-                        if not matching:
-                            matching = self._targeted(cache, obj, direction, ref, region, deadline)
-                        self._place_literals(
-                            cache, literals, obstacles, obj, direction, ref, region, matching
-                        )
+                for direction, ref, matching in self._beside(
+                    cache, regions_of, obj, region, samples
+                ):
+                    if not matching:
+                        matching = self._targeted(cache, obj, direction, ref, region, deadline)
+                    self._place_literals(
+                        cache, literals, obstacles, obj, direction, ref, region, matching
+                    )
         self._prepare_world(state)
         return frozenset(literals)
 

@@ -73,12 +73,22 @@ class PredicateSettings:
     of the goal's objects at their goal (where an occluder is put down is left to Concretize,
     which checks it). A scene of many objects with a few goal objects then costs about what a
     small one does (``PredicateEngine``)."""
+    workers: int = 1
+    """Processes for a state's full computation (beyond the paper; 1: the trial's own only).
+    Forked copies of the process each sample a share of the actions
+    (:mod:`stalm.predicates.forked`) and the literals are the same for any number; the
+    cheaper cached updates after an action stay in one process. An experiment running
+    trials side by side must leave a core per process (``stalm experiment`` checks)."""
     engine: Engine = "batched"
     """How the sampled motions are swept: 'batched' (compiled candidate tests, each candidate
     confirmed by PyBullet) or 'pybullet' (every configuration queried; the reference). Both
     give the same literals (:mod:`stalm.motion.colliders`)."""
 
     def __post_init__(self) -> None:
+        if isinstance(self.workers, bool) or not isinstance(self.workers, int) or self.workers < 1:
+            raise StalmError(
+                f"setting predicates.workers must be a whole number >= 1, got {self.workers!r}"
+            )
         if self.engine not in ENGINES:
             raise StalmError(
                 f"setting predicates.engine must be one of {', '.join(ENGINES)}, got "

@@ -96,6 +96,7 @@ REACHES = [
         "iterative-replanning",
         lambda p: p.sampling.predicates.pick_samples,
     ),
+    ("predicates.workers", 2, "stalm", lambda p: p.sampling.predicates.workers),
     ("execution.kappa_tries", 2, "ep-saycan", lambda p: p.settings.kappa_tries),
     ("execution.step_share", 0.5, "stalm", lambda p: p.settings.step_share),
     ("execution.feedback_rounds", 3, "stalm", lambda p: p.settings.feedback_rounds),

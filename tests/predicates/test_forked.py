@@ -1,0 +1,140 @@
+"""The predicates on two cores (``predicates.workers``, beyond the paper).
+
+:func:`stalm.predicates.forked.forked_map` deals items to forked copies of the process; the
+engine's full computation with two workers must give what one process gives, literal for
+literal and sample for sample, since every action draws from its own seeded generator.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+
+import pytest
+
+from stalm.errors import StalmError
+from stalm.experiments.runner import check_cores
+from stalm.experiments.trials import Arm, TrialSpec
+from stalm.predicates import forked
+from stalm.predicates.cache import PredicateCache
+from stalm.predicates.engine import PredicateEngine
+from stalm.predicates.forked import forked_map
+from stalm.predicates.samples import PredicateSettings
+from stalm.settings.tree import RunSettings
+
+pytestmark = pytest.mark.skipif(not forked.can_fork(), reason="no fork on this platform")
+
+
+def test_results_come_back_in_the_items_order_for_any_number_of_workers() -> None:
+    items = list(range(11))
+    for workers in (1, 2, 3, 20):
+        assert forked_map(lambda n: n * n, items, workers) == [n * n for n in items]
+    assert forked_map(lambda n: n, [], 2) == []
+
+
+def test_shares_run_in_other_processes() -> None:
+    pids = forked_map(lambda _: os.getpid(), [0, 1, 2, 3], 2)
+    assert pids[0] == pids[2] == os.getpid()  # share 0: items 0 and 2, here
+    assert pids[1] == pids[3] != os.getpid()  # share 1: a child
+
+
+def test_without_fork_everything_runs_here(monkeypatch) -> None:
+    monkeypatch.setattr(forked, "can_fork", lambda: False)
+    assert set(forked_map(lambda _: os.getpid(), [0, 1, 2, 3], 2)) == {os.getpid()}
+
+
+class _ShareFailed(Exception):
+    pass
+
+
+def _fail_on(bad: int):
+    def function(item: int) -> int:
+        if item == bad:
+            raise _ShareFailed(f"item {item}")
+        return item
+
+    return function
+
+
+def test_an_exception_in_a_child_is_raised_in_the_caller() -> None:
+    with pytest.raises(_ShareFailed, match="item 1"):
+        forked_map(_fail_on(1), [0, 1, 2, 3], 2)  # item 1 is the child's
+
+
+def test_an_exception_in_the_callers_share_is_raised_after_the_children_end() -> None:
+    with pytest.raises(_ShareFailed, match="item 0"):
+        forked_map(_fail_on(0), [0, 1, 2, 3], 2)
+
+
+def test_a_child_that_dies_without_answering_is_named() -> None:
+    def die_in_child(item: int) -> int:
+        if item == 1:
+            os._exit(3)
+        return item
+
+    with pytest.raises(RuntimeError, match="ended without an answer"):
+        forked_map(die_in_child, [0, 1], 2)
+
+
+class _Unpicklable(Exception):
+    def __init__(self, handle: object) -> None:
+        super().__init__("cannot travel")
+        self.handle = handle
+
+
+def test_an_exception_that_does_not_pickle_still_says_what_it_was() -> None:
+    def raise_unpicklable(item: int) -> int:
+        if item == 1:
+            raise _Unpicklable(lambda: None)
+        return item
+
+    with pytest.raises(RuntimeError, match="cannot travel"):
+        forked_map(raise_unpicklable, [0, 1], 2)
+
+
+def _samples(cache: PredicateCache) -> dict[tuple[object, ...], object]:
+    """Every sample's pose and collisions, by its action."""
+    found: dict[tuple[object, ...], object] = {
+        ("base", name): motion.hits for name, motion in cache.base.items()
+    }
+    for name, record in cache.picks.items():
+        found[("pick", name)] = (record.grasp, tuple(m.hits for m in record.motions))
+    for kind, entries in (("place", cache.placements), ("beside", cache.targeted)):
+        for key, samples in entries.items():
+            found[(kind, *key)] = tuple((s.pose, s.motion.hits) for s in samples)
+    return found
+
+
+@pytest.mark.parametrize("name", ["P1", "P5"])
+def test_two_workers_compute_what_one_does(domain_factory, name: str) -> None:
+    domain = domain_factory(name)
+    problem = domain.problem
+    one, two = (
+        PredicateEngine(
+            problem, domain.sim, domain.base_planner, PredicateSettings(workers=workers)
+        ).compute(problem.initial_state)
+        for workers in (1, 2)
+    )
+    assert one.literals == two.literals
+    assert one.targeted  # placements beside references were drawn (the third share)
+    assert _samples(one) == _samples(two)
+
+
+def test_workers_must_be_a_whole_number_of_processes() -> None:
+    for bad in (0, -1, 1.5, True):
+        with pytest.raises(StalmError, match=r"predicates\.workers"):
+            PredicateSettings(workers=bad)  # type: ignore[arg-type]
+
+
+def _spec(per_trial: int) -> TrialSpec:
+    settings = RunSettings()
+    settings = replace(settings, predicates=replace(settings.predicates, workers=per_trial))
+    return TrialSpec("table2", Arm("stalm-symbolic", "stalm", settings), "P1", "", 0, 0, 300.0)
+
+
+def test_an_experiment_refuses_more_predicate_processes_than_cores(monkeypatch) -> None:
+    monkeypatch.setattr("stalm.experiments.runner.usable_cores", lambda: 2)
+    check_cores([_spec(2)], 1)  # one trial, two processes: fits
+    check_cores([_spec(1)], 2)  # two trials of one process each: fits
+    with pytest.raises(StalmError, match=r"--workers 2 with predicates\.workers=2 .* 2 cores"):
+        check_cores([_spec(1), _spec(2)], 2)
