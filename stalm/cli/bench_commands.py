@@ -85,6 +85,10 @@ def bench_predicates(
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Also write the rows as JSON.")
     ] = None,
+    workers: Annotated[
+        int,
+        typer.Option(min=1, help="Also time the full computation shared by this many processes."),
+    ] = 1,
 ) -> None:
     """The batched predicate engine beside its PyBullet reference: the full computation, the
     relevance-limited one, and the cached updates after an OPEN, a PICK and a PLACE."""
@@ -97,6 +101,7 @@ def bench_predicates(
         "objects",
         "literals",
         "full",
+        *([f"full, {workers} processes"] if workers > 1 else []),
         "relevant only",
         "OPEN update",
         "PICK update",
@@ -115,6 +120,12 @@ def bench_predicates(
         mark = "" if entry["equal"] else " (differs from scratch!)"
         return ratio(entry["update_s"], entry["reference_update_s"]) + mark
 
+    def forked_cell(row: dict[str, object]) -> str:
+        full, forked = row["full_s"], row["forked_full_s"]
+        assert isinstance(full, float) and isinstance(forked, float)
+        mark = "" if row["forked_equal"] else " (literals differ!)"
+        return f"{forked:.3f} = {full / forked:.1f}x" + mark
+
     rows = []
     with console.status("benchmarking predicates...") as status:
 
@@ -126,6 +137,7 @@ def bench_predicates(
                 str(row["objects"]),
                 str(row["literals"]),
                 ratio(row["full_s"], row["reference_full_s"]),
+                *([forked_cell(row)] if workers > 1 else []),
                 f"{row['relevant_full_s']:.2f} ({row['relevant_literals']} literals)",
                 cell(row.get("open")),
                 cell(row.get("pick")),
@@ -134,7 +146,7 @@ def bench_predicates(
             )
             rows.append(row)
 
-        run(names, seed, report)
+        run(names, seed, report, workers)
     console.print(table)
     if json_out is not None:
         json_out.write_text(json.dumps(rows, indent=2))

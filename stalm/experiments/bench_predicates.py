@@ -7,7 +7,10 @@ batched engine limited to the relevant objects (``relevant_full_s``,
 from a seeded generator), each timed as a cached update by both engines. Every state's
 literals are compared: ``literals_equal`` says the two engines agree on all of them, and
 ``missed`` counts the literals the reference has and the batched engine lacks (0, or the
-batched engine is not conservative). Wall times of this process (``time.perf_counter``).
+batched engine is not conservative). With ``workers`` > 1 the full computation is also timed
+shared among that many processes (``forked_full_s``, ``predicates.workers``), and
+``forked_equal`` says its literals are the one process's. Wall times of this process
+(``time.perf_counter``).
 """
 
 from __future__ import annotations
@@ -58,7 +61,7 @@ def _timed(compute: Callable[[], PredicateCache]) -> tuple[PredicateCache, float
     return cache, time.perf_counter() - start
 
 
-def bench_problem(name: str, seed: int = 0) -> dict[str, object]:
+def bench_problem(name: str, seed: int = 0, workers: int = 1) -> dict[str, object]:
     """One problem's row (see the module docstring)."""
     problem = load_problem(name)
     domain = Domain.create(problem)
@@ -89,6 +92,13 @@ def bench_problem(name: str, seed: int = 0) -> dict[str, object]:
         "literals": len(cache.literals),
         "relevant_literals": len(relevant_cache.literals),
     }
+    if workers > 1:
+        forked = PredicateEngine(
+            problem, domain.sim, domain.base_planner, replace(settings, workers=workers)
+        )
+        forked_cache, row["forked_full_s"] = _timed(lambda: forked.compute(state))
+        row["forked_workers"] = workers
+        row["forked_equal"] = forked_cache.literals == cache.literals
     for label, kind in (("open", Open), ("pick", Pick), ("place", Place)):
         found = _feasible(domain, state, kind, rng)
         if found is None:
@@ -117,11 +127,14 @@ def bench_problem(name: str, seed: int = 0) -> dict[str, object]:
 
 
 def run(
-    names: list[str], seed: int, report: Callable[[dict[str, object]], None]
+    names: list[str],
+    seed: int,
+    report: Callable[[dict[str, object]], None],
+    workers: int = 1,
 ) -> list[dict[str, object]]:
     rows = []
     for name in names:
-        row = bench_problem(name, seed)
+        row = bench_problem(name, seed, workers)
         report(row)
         rows.append(row)
     return rows

@@ -170,10 +170,11 @@ def test_predicate_benchmark_checks_the_cache(
     monkeypatch, tmp_path: Path, two_bottle_p2: Path
 ) -> None:
     rows = tmp_path / "predicates.json"
-    args = ["bench", "predicates", str(two_bottle_p2), "--json", str(rows)]
+    args = ["bench", "predicates", str(two_bottle_p2), "--json", str(rows), "--workers", "2"]
     assert run_cli(monkeypatch, *args) == 0
     row = json.loads(rows.read_text())[0]
     assert row["full_s"] > 0 and row["reference_full_s"] > 0 and row["literals"] > 10
+    assert row["forked_workers"] == 2 and row["forked_full_s"] > 0 and row["forked_equal"] is True
     assert row["relevant_full_s"] > 0 and 0 < row["relevant_literals"] <= row["literals"]
     assert row["literals_equal"] is True and row["missed"] == 0  # the engines agree
     for kind in ("open", "pick", "place"):
