@@ -25,13 +25,7 @@ PLACE the moved object's own actions are resampled, and only motions that pass n
 pose are swept again, against it alone. :meth:`PredicateEngine.update` equals
 :meth:`PredicateEngine.compute` on the new state, literal for literal.
 
-A placement relative to a reference object counts only samples whose motion clears the
-reference itself: a sample drawn against the reference, or one whose held object or hand
-brushes it on the way down or back, would make the reference its own occluder
-(``PlaceOccludedBy(salter, left_of, bottle2, bottle2)``), a literal no plan can satisfy since
-moving the reference moves the place it names. Both causes were seen: P2's initial state had
-14 such literals, from 17 samples of which 6 overlapped the reference and 11 touched it only
-with the held object's or the hand's sweep (P5: 30 literals, 35 of 60 samples overlapping).
+Placements beside a reference: :mod:`stalm.predicates.beside`.
 
 Base paths start from the problem's initial robot pose, not the robot's current one, so the
 literals do not depend on where the robot last stood: the robot changes rooms only through an
@@ -50,17 +44,16 @@ never reads occlusion literals, so nothing else needs them.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
-from typing import Protocol, TypeVar
+from typing import Protocol
 
-from stalm.geometry.directions import RELATIVE_DIRECTIONS
 from stalm.motion.base_motion import BasePlanner
 from stalm.motion.grasps import PITCH_RANGE, YAW_RANGE
 from stalm.motion.manipulation import PARKED
+from stalm.predicates.beside import beside, targeted_wanted
 from stalm.predicates.cache import PredicateCache, forget_object, resweep_near
 from stalm.predicates.deadline import Deadline, DeadlinePassed, check
 from stalm.predicates.forked import forked_map
-from stalm.predicates.goals import goal_region, goal_relation
+from stalm.predicates.goals import goal_region
 from stalm.predicates.literals import SCOPE_PREDICATE, GroundLiteral
 from stalm.predicates.samples import (
     MotionSamples,
@@ -70,13 +63,9 @@ from stalm.predicates.samples import (
 )
 from stalm.predicates.symbolic import add_symbolic
 from stalm.world.problem import Problem
-from stalm.world.relations import direction_between
 from stalm.world.scene import Sim
 from stalm.world.spec import RegionSpec
 from stalm.world.state import State
-
-Item = TypeVar("Item")
-Result = TypeVar("Result")
 
 
 class ActionTuple(Protocol):
@@ -165,26 +154,23 @@ class PredicateEngine:
         """Every pick, every placement on every region, and the placements beside each
         reference that no plain placement lands at: independent samples, shared among
         ``settings.workers`` processes (:mod:`stalm.predicates.forked`)."""
-        state = cache.state
+        state, workers = cache.state, self.settings.workers
 
         def pick(name: str) -> PickRecord:
             check(deadline)
             return self.samples.pick_record(name, state.pose(name))
 
         names = [name for name, _ in state.poses]
-        cache.picks.update(zip(names, self._map(pick, names), strict=True))
+        cache.picks.update(zip(names, forked_map(pick, names, workers), strict=True))
         self._refresh_grasps(cache)
         pairs = [(obj, region) for obj in cache.grasps for region in self.spec.regions]
-        placed = self._map(lambda pair: self._placements(cache, *pair, deadline), pairs)
+        placed = forked_map(lambda pair: self._placements(cache, *pair, deadline), pairs, workers)
         for (obj, region), samples in zip(pairs, placed, strict=True):
             cache.placements[(obj, region.name)] = samples
-        wanted = sorted(self._targeted_wanted(cache), key=lambda key: key[:3])
-        targeted = self._map(lambda key: self._targeted(cache, *key, deadline), wanted)
+        wanted = sorted(targeted_wanted(self.problem, cache), key=lambda key: key[:3])
+        targeted = forked_map(lambda key: self._targeted(cache, *key, deadline), wanted, workers)
         for (obj, direction, ref, _), samples in zip(wanted, targeted, strict=True):
             cache.targeted[(obj, direction, ref)] = samples
-
-    def _map(self, function: Callable[[Item], Result], items: Sequence[Item]) -> list[Result]:
-        return forked_map(function, items, self.settings.workers)
 
     def _relevant(self, cache: PredicateCache, deadline: Deadline | None) -> None:
         """Picks of the goal's objects, of what occludes picking them or placing them at their
@@ -340,52 +326,6 @@ class PredicateEngine:
         add_symbolic(self.spec, state, literals)
         return frozenset(literals)
 
-    def _beside(
-        self,
-        cache: PredicateCache,
-        regions_of: dict[str, str],
-        obj: str,
-        region: RegionSpec,
-        samples: tuple[PlacementSample, ...],
-    ) -> Iterator[tuple[str, str, tuple[PlacementSample, ...]]]:
-        """For each reference on ``region`` and each direction: (direction, reference, the
-        plain samples lying there whose motion clears the reference; empty: none does)."""
-        state = cache.state
-        for ref, ref_region in regions_of.items():
-            if ref == obj or ref_region != region.name:
-                continue
-            if cache.relevant is not None and not goal_relation(self.problem, obj, ref):
-                continue
-            ref_pose = state.pose(ref)
-            for direction in RELATIVE_DIRECTIONS:
-                # a motion touching the reference itself says nothing: moving the
-                # reference away undoes the relation (see the module docstring)
-                yield (
-                    direction,
-                    ref,
-                    tuple(
-                        s
-                        for s in samples
-                        if direction_between(region, s.pose, ref_pose) == direction
-                        and ref not in s.motion.hits
-                    ),
-                )
-
-    def _targeted_wanted(self, cache: PredicateCache) -> set[tuple[str, str, str, RegionSpec]]:
-        """The targeted placements :meth:`_derive` will ask for: (object, direction,
-        reference, region) where no plain sample lies beside the reference."""
-        regions_of = add_symbolic(self.spec, cache.state, set())
-        wanted = set()
-        for obj in cache.grasps:
-            for region in self.spec.regions:
-                samples = cache.placements.get((obj, region.name), ())
-                for direction, ref, matching in self._beside(
-                    cache, regions_of, obj, region, samples
-                ):
-                    if not matching and (obj, direction, ref) not in cache.targeted:
-                        wanted.add((obj, direction, ref, region))
-        return wanted
-
     def _derive(self, cache: PredicateCache, deadline: Deadline | None) -> frozenset[GroundLiteral]:
         state = cache.state
         literals: set[GroundLiteral] = set()
@@ -410,8 +350,8 @@ class PredicateEngine:
                 self._place_literals(
                     cache, literals, obstacles, obj, "on", region.name, region, samples
                 )
-                for direction, ref, matching in self._beside(
-                    cache, regions_of, obj, region, samples
+                for direction, ref, matching in beside(
+                    self.problem, cache, regions_of, obj, region, samples
                 ):
                     if not matching:
                         matching = self._targeted(cache, obj, direction, ref, region, deadline)
