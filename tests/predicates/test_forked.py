@@ -8,6 +8,7 @@ literal and sample for sample, since every action draws from its own seeded gene
 from __future__ import annotations
 
 import os
+import time
 from dataclasses import replace
 
 import pytest
@@ -32,48 +33,62 @@ def test_results_come_back_in_the_items_order_for_any_number_of_workers() -> Non
     assert forked_map(lambda n: n, [], 2) == []
 
 
-def test_shares_run_in_other_processes() -> None:
-    pids = forked_map(lambda _: os.getpid(), [0, 1, 2, 3], 2)
-    assert pids[0] == pids[2] == os.getpid()  # share 0: items 0 and 2, here
-    assert pids[1] == pids[3] != os.getpid()  # share 1: a child
+def _slow_pid(_: object) -> int:
+    time.sleep(0.2)  # long enough that a child forked meanwhile is dealt items too
+    return os.getpid()
+
+
+def test_items_are_shared_with_forked_processes() -> None:
+    pids = forked_map(_slow_pid, list(range(6)), 2)
+    assert os.getpid() in pids and len(set(pids)) == 2
 
 
 def test_without_fork_everything_runs_here(monkeypatch) -> None:
     monkeypatch.setattr(forked, "can_fork", lambda: False)
-    assert set(forked_map(lambda _: os.getpid(), [0, 1, 2, 3], 2)) == {os.getpid()}
+    assert set(forked_map(_slow_pid, [0, 1, 2, 3], 2)) == {os.getpid()}
 
 
-class _ShareFailed(Exception):
+class _ItemFailed(Exception):
     pass
 
 
-def _fail_on(bad: int):
+def _in_a_child(action):
+    """A function that does ``action`` in a forked child and is slow in the caller."""
+    caller = os.getpid()
+
     def function(item: int) -> int:
-        if item == bad:
-            raise _ShareFailed(f"item {item}")
+        if os.getpid() != caller:
+            action()
+        time.sleep(0.2)
         return item
 
     return function
 
 
+def _fail() -> None:
+    raise _ItemFailed("in a child")
+
+
 def test_an_exception_in_a_child_is_raised_in_the_caller() -> None:
-    with pytest.raises(_ShareFailed, match="item 1"):
-        forked_map(_fail_on(1), [0, 1, 2, 3], 2)  # item 1 is the child's
+    with pytest.raises(_ItemFailed, match="in a child"):
+        forked_map(_in_a_child(_fail), [0, 1, 2, 3], 2)
 
 
-def test_an_exception_in_the_callers_share_is_raised_after_the_children_end() -> None:
-    with pytest.raises(_ShareFailed, match="item 0"):
-        forked_map(_fail_on(0), [0, 1, 2, 3], 2)
+def test_an_exception_in_the_caller_is_raised_after_the_children_end() -> None:
+    caller = os.getpid()
+
+    def fail_here(item: int) -> int:
+        if os.getpid() == caller:
+            raise _ItemFailed("in the caller")
+        return item
+
+    with pytest.raises(_ItemFailed, match="in the caller"):
+        forked_map(fail_here, [0, 1, 2, 3], 2)
 
 
 def test_a_child_that_dies_without_answering_is_named() -> None:
-    def die_in_child(item: int) -> int:
-        if item == 1:
-            os._exit(3)
-        return item
-
     with pytest.raises(RuntimeError, match="ended without an answer"):
-        forked_map(die_in_child, [0, 1], 2)
+        forked_map(_in_a_child(lambda: os._exit(3)), [0, 1, 2, 3], 2)
 
 
 class _Unpicklable(Exception):
@@ -82,14 +97,13 @@ class _Unpicklable(Exception):
         self.handle = handle
 
 
-def test_an_exception_that_does_not_pickle_still_says_what_it_was() -> None:
-    def raise_unpicklable(item: int) -> int:
-        if item == 1:
-            raise _Unpicklable(lambda: None)
-        return item
+def _raise_unpicklable() -> None:
+    raise _Unpicklable(lambda: None)
 
+
+def test_an_exception_that_does_not_pickle_still_says_what_it_was() -> None:
     with pytest.raises(RuntimeError, match="cannot travel"):
-        forked_map(raise_unpicklable, [0, 1], 2)
+        forked_map(_in_a_child(_raise_unpicklable), [0, 1, 2, 3], 2)
 
 
 def _samples(cache: PredicateCache) -> dict[tuple[object, ...], object]:
