@@ -18,6 +18,7 @@ from stalm.experiments.runner import check_cores
 from stalm.experiments.trials import Arm, TrialSpec
 from stalm.predicates import forked
 from stalm.predicates.cache import PredicateCache
+from stalm.predicates.deadline import DeadlinePassed
 from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.forked import forked_map
 from stalm.predicates.samples import PredicateSettings
@@ -152,3 +153,16 @@ def test_an_experiment_refuses_more_predicate_processes_than_cores(monkeypatch) 
     check_cores([_spec(1)], 2)  # two trials of one process each: fits
     with pytest.raises(StalmError, match=r"--workers 2 with predicates\.workers=2 .* 2 cores"):
         check_cores([_spec(1), _spec(2)], 2)
+
+
+def test_a_deadline_passing_in_a_shared_computation_gives_it_up(domain_factory) -> None:
+    domain = domain_factory("P3")  # its full computation takes over a second
+    problem = domain.problem
+    engine = PredicateEngine(problem, domain.sim, domain.base_planner, PredicateSettings(workers=2))
+    start = time.monotonic()
+    with pytest.raises(DeadlinePassed):
+        engine.compute(problem.initial_state, deadline=lambda: time.monotonic() > start + 0.2)
+    # nothing half-computed stays behind: the next computation is a whole one
+    again = engine.compute(problem.initial_state)
+    alone = PredicateEngine(problem, domain.sim, domain.base_planner, PredicateSettings())
+    assert again.literals == alone.compute(problem.initial_state).literals
