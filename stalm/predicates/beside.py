@@ -24,7 +24,7 @@ from stalm.geometry.directions import RELATIVE_DIRECTIONS
 from stalm.predicates.cache import PredicateCache
 from stalm.predicates.goals import goal_relation
 from stalm.predicates.samples import PlacementSample
-from stalm.predicates.symbolic import add_symbolic
+from stalm.predicates.symbolic import resting_regions
 from stalm.world.problem import Problem
 from stalm.world.relations import direction_between
 from stalm.world.spec import RegionSpec
@@ -69,7 +69,7 @@ def targeted_wanted(
     """The targeted placements the derivation of ``cache``'s literals will ask for, not yet
     drawn: (object, direction, reference, region) where no plain sample lies beside the
     reference."""
-    regions_of = add_symbolic(problem.spec, cache.state, set())
+    regions_of = resting_regions(problem.spec, cache.state)
     wanted = set()
     for obj in cache.grasps:
         for region in problem.spec.regions:

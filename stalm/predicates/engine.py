@@ -167,6 +167,8 @@ class PredicateEngine:
         placed = forked_map(lambda pair: self._placements(cache, *pair, deadline), pairs, workers)
         for (obj, region), samples in zip(pairs, placed, strict=True):
             cache.placements[(obj, region.name)] = samples
+        if workers == 1:
+            return  # the derivation draws the placements beside references as it meets them
         wanted = sorted(targeted_wanted(self.problem, cache), key=lambda key: key[:3])
         targeted = forked_map(lambda key: self._targeted(cache, *key, deadline), wanted, workers)
         for (obj, direction, ref, _), samples in zip(wanted, targeted, strict=True):

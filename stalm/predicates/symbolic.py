@@ -23,12 +23,9 @@ def add_symbolic(spec: ProblemSpec, state: State, literals: set[GroundLiteral]) 
     for door in spec.doors:
         if not state.is_open(door.name):
             literals.add(GroundLiteral("IsClosed", (door.name,)))
-    regions_of: dict[str, str] = {}
-    for name, pose in state.poses:
-        support = supporting_region(spec, pose)
-        if support is not None:
-            regions_of[name] = support
-            literals.add(GroundLiteral("AtPosition", (name, "on", support)))
+    regions_of = resting_regions(spec, state)
+    for name, support in regions_of.items():
+        literals.add(GroundLiteral("AtPosition", (name, "on", support)))
     for name, support in regions_of.items():
         for other, other_support in regions_of.items():
             if other != name and other_support == support:
@@ -36,4 +33,14 @@ def add_symbolic(spec: ProblemSpec, state: State, literals: set[GroundLiteral]) 
                     spec.region(support), state.pose(name), state.pose(other)
                 )
                 literals.add(GroundLiteral("AtPosition", (name, direction, other)))
+    return regions_of
+
+
+def resting_regions(spec: ProblemSpec, state: State) -> dict[str, str]:
+    """Each resting object's supporting region, in the state's order of objects."""
+    regions_of: dict[str, str] = {}
+    for name, pose in state.poses:
+        support = supporting_region(spec, pose)
+        if support is not None:
+            regions_of[name] = support
     return regions_of
