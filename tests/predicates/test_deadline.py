@@ -65,12 +65,12 @@ def test_the_engine_looks_between_samples_and_stops_at_the_first_look_past_the_d
 
 
 def test_a_computation_ends_soon_after_a_wall_clock_deadline(p2) -> None:
-    """Seconds for a full computation; the deadline half a second in stops it within one
-    sample's time of it."""
+    """A full computation takes over half a second (on the geometric core; seconds before
+    it); a deadline a tenth of a second in stops it within one sample's time of it."""
     domain, engine = p2
     start = time.monotonic()
     with pytest.raises(DeadlinePassed):
-        engine.compute(domain.problem.initial_state, lambda: time.monotonic() >= start + 0.5)
+        engine.compute(domain.problem.initial_state, lambda: time.monotonic() >= start + 0.1)
     assert time.monotonic() - start < 1.5
 
 

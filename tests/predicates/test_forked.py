@@ -81,6 +81,7 @@ def test_an_exception_in_the_caller_is_raised_after_the_children_end() -> None:
     def fail_here(item: int) -> int:
         if os.getpid() == caller:
             raise _ItemFailed("in the caller")
+        time.sleep(0.2)  # a child is slow: the caller is dealt an item too
         return item
 
     with pytest.raises(_ItemFailed, match="in the caller"):
