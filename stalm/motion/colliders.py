@@ -72,6 +72,13 @@ class Collider(Protocol):
         """Every body the robot touches at any of the base poses ``waypoints`` (the arm and
         what it holds as the simulator has them)."""
 
+    def arm_touches_body(self, stand: SE2, confs: Sequence[Conf], body: int) -> bool:
+        """Does the robot (base, arm, what it holds) touch ``body`` at any of ``confs`` at
+        ``stand``? Asked again of a cached motion when ``body`` has moved."""
+
+    def route_touches_body(self, waypoints: Sequence[SE2], body: int) -> bool:
+        """Does the robot touch ``body`` at any of the base poses ``waypoints``?"""
+
 
 class PyBulletCollider:
     """The reference: each configuration set in PyBullet and queried (``Sim.contacts_of``)."""
@@ -119,6 +126,22 @@ class PyBulletCollider:
             hits |= self.sim.robot_contacts(ignore)
         return hits
 
+    def arm_touches_body(self, stand: SE2, confs: Sequence[Conf], body: int) -> bool:
+        sim = self.sim
+        for conf in confs:
+            sim.set_arm(stand, conf[0], conf[1:])
+            if sim.touches(sim.robot_bodies(), body):
+                return True
+        return False
+
+    def route_touches_body(self, waypoints: Sequence[SE2], body: int) -> bool:
+        sim = self.sim
+        for pose in waypoints:
+            sim.set_base_only(pose)
+            if sim.touches(sim.robot_bodies(), body):
+                return True
+        return False
+
 
 class BatchCollider:
     """The batched engine: candidates from the compiled test, confirmed by PyBullet."""
@@ -136,8 +159,9 @@ class BatchCollider:
         confs: np.ndarray,
         ignore: Iterable[int],
         with_base: bool,
+        only: int | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        boxes, cylinders = self._scene.world(ignore)
+        boxes, cylinders = self._scene.world(ignore, only)
         chain = self._chain
         links, centres, radii, groups, held_boxes, held_box_group = self._scene.with_held()
         reach = np.empty((len(confs), 4))
@@ -243,10 +267,12 @@ class BatchCollider:
         _, hits = self._confirm(flags, set_step, sim.robot_bodies, first=True)
         return (hits - {sim.bodies.base}) | base_hits
 
-    def _route_flags(self, waypoints: Sequence[SE2], ignore: set[int]) -> np.ndarray:
+    def _route_flags(
+        self, waypoints: Sequence[SE2], ignore: set[int], only: int | None = None
+    ) -> np.ndarray:
         conf = np.array([self.sim.arm_conf()] * len(waypoints), dtype=float)
         stands = np.asarray(waypoints, dtype=float).reshape(-1, 3)
-        flags, _ = self._candidates(stands, conf, ignore, True)
+        flags, _ = self._candidates(stands, conf, ignore, True, only)
         return flags
 
     def route_first_touch(self, waypoints: Sequence[SE2], ignore: set[int]) -> tuple[int, set[int]]:
@@ -268,6 +294,32 @@ class BatchCollider:
             first=False,
         )
         return hits
+
+    def arm_touches_body(self, stand: SE2, confs: Sequence[Conf], body: int) -> bool:
+        sim = self.sim
+        if not confs:
+            return False
+        sim.set_base_only(stand)  # the base stands still at every configuration
+        if sim.touches([sim.bodies.base], body):
+            return True
+        array = np.asarray(confs, dtype=float).reshape(-1, 8)
+        stands = np.tile(np.asarray(stand, dtype=float), (len(array), 1))
+        flags, _ = self._candidates(stands, array, (), False, only=body)
+
+        def set_step(step: int) -> None:
+            sim.set_arm(stand, confs[step][0], confs[step][1:])
+
+        step, _ = self._confirm(flags, set_step, sim.robot_bodies, first=True)
+        return step >= 0
+
+    def route_touches_body(self, waypoints: Sequence[SE2], body: int) -> bool:
+        if not waypoints:
+            return False
+        flags = self._route_flags(waypoints, set(), only=body)
+        step, _ = self._confirm(
+            flags, lambda k: self.sim.set_base_only(waypoints[k]), self.sim.robot_bodies, first=True
+        )
+        return step >= 0
 
 
 def make_collider(sim: Sim, engine: str) -> Collider:

@@ -110,18 +110,24 @@ class ScenePrimitives:
             ]
         )
 
-    def world(self, ignore: Iterable[int]) -> tuple[np.ndarray, np.ndarray]:
+    def world(
+        self, ignore: Iterable[int], only: int | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Boxes and cylinders of every body but the robot's, as the simulator has them now;
-        the bodies in ``ignore`` (and a held object) get column -1 (never candidates)."""
+        the bodies in ``ignore`` (and a held object) get column -1 (never candidates). With
+        ``only`` (a door's or a movable object's body), that body's primitives and nothing
+        else: a motion is tested against one body that moved."""
         sim = self.sim
         skipped = set(ignore)
         if sim.held is not None:
             skipped.add(sim.bodies.objects[sim.held.obj])
-        boxes = [self._static] if self._static.size else []
+        boxes = [self._static] if self._static.size and only is None else []
         cylinders = []
         client = sim.client
         for door in sim.problem.doors:
             body = sim.bodies.doors[door.name]
+            if only is not None and body != only:
+                continue
             column = -1 if body in skipped else self.column_of[body]
             position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=client)
             rotation = yaw_rotation(quat_yaw(orientation))
@@ -140,6 +146,8 @@ class ScenePrimitives:
                 boxes.append(box_row(world, half, rotation, column)[None, :])
         for name, obj in self._objects.items():
             body = sim.bodies.objects[name]
+            if only is not None and body != only:
+                continue
             column = -1 if body in skipped else self.column_of[body]
             position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=client)
             if obj.shape == "grill":

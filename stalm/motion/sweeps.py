@@ -15,7 +15,6 @@ from dataclasses import dataclass
 
 from stalm.motion.base_motion import SE2, BasePath, densify
 from stalm.motion.colliders import Collider
-from stalm.world.scene import Sim
 from stalm.world.state import Grasp, ObjectPose
 
 Conf = tuple[float, ...]
@@ -147,9 +146,13 @@ def sweep(
     return frozenset(hits), tuple(fan)
 
 
-def sweep_near(sim: Sim, motion: SweptMotion, body: int, x: float, y: float, radius: float) -> bool:
+def sweep_near(
+    collider: Collider, motion: SweptMotion, body: int, x: float, y: float, radius: float
+) -> bool:
     """Does ``motion`` touch ``body`` standing at (x, y)? Only the configurations whose reach
-    passes within range of it are tested, against it alone."""
+    passes within range of it are tested, against it alone, by ``collider`` (both engines
+    give the same answer)."""
+    sim = collider.sim
     margin = radius + motion.held_reach
     lines = iter(motion.fan)
     hit = False
@@ -159,26 +162,24 @@ def sweep_near(sim: Sim, motion: SweptMotion, body: int, x: float, y: float, rad
             sim.place_object(segment.obj, segment.pose)
             hit = sim.touches([sim.bodies.objects[segment.obj]], body)
         elif isinstance(segment, ArmSegment):
-            sim.attach(segment.held)
-            ignore = {sim.bodies.objects[segment.ignore]} if segment.ignore is not None else set()
-            sim.set_base_only(segment.base)
-            for conf in segment.confs:
-                line = next(lines)
-                if _point_segment_distance(x, y, line) >= ARM_BULGE + margin:
-                    continue
-                sim.set_arm(segment.base, conf[0], conf[1:])
-                if body not in ignore and sim.touches(sim.robot_bodies(), body):
-                    hit = True
-                    break
+            near = [
+                conf
+                for conf in segment.confs
+                if _point_segment_distance(x, y, next(lines)) < ARM_BULGE + margin
+            ]
+            objects = sim.bodies.objects
+            # the object being grasped or released, or carried, is not its own obstacle
+            ignored = (segment.ignore is not None and objects[segment.ignore] == body) or (
+                segment.held is not None and objects[segment.held.obj] == body
+            )
+            if near and not ignored:
+                sim.attach(segment.held)
+                hit = collider.arm_touches_body(segment.base, near, body)
         else:
             sim.attach(None)
-            for pose in segment.waypoints:
-                if math.hypot(pose[0] - x, pose[1] - y) >= BASE_FOOTPRINT + margin:
-                    continue
-                sim.set_base_only(pose)
-                if sim.touches(sim.robot_bodies(), body):
-                    hit = True
-                    break
+            reach = BASE_FOOTPRINT + margin
+            poses = [p for p in segment.waypoints if math.hypot(p[0] - x, p[1] - y) < reach]
+            hit = collider.route_touches_body(poses, body)
         if hit:
             break
     sim.attach(None)

@@ -12,6 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
+from stalm.motion.colliders import Collider
 from stalm.motion.manipulation import PARKED
 from stalm.motion.sweeps import ArmSegment, ObjectAt, SweptMotion, sweep_near
 from stalm.predicates.deadline import Deadline, check
@@ -77,7 +78,7 @@ def forget_object(cache: PredicateCache, obj: str) -> None:
 
 def resweep_near(
     cache: PredicateCache,
-    sim: Sim,
+    collider: Collider,
     obj: str,
     pose: ObjectPose,
     radius: float,
@@ -85,6 +86,7 @@ def resweep_near(
 ) -> None:
     """Test the motions of ``cache`` that pass near ``obj``'s new ``pose`` against it, and it
     alone (the rest of the world did not move); ``radius``: its extent seen from above."""
+    sim = collider.sim
     body = sim.bodies.objects[obj]
 
     def again(motion: SweptMotion) -> SweptMotion:
@@ -93,7 +95,7 @@ def resweep_near(
         check(deadline)
         cache.swept_motions += 1
         sim.place_object(obj, pose)
-        hit = sweep_near(sim, motion, body, pose.x, pose.y, radius)
+        hit = sweep_near(collider, motion, body, pose.x, pose.y, radius)
         _restore_subjects(sim, cache.state, motion)
         sim.place_object(obj, pose)
         return replace(motion, hits=motion.hits | {obj}) if hit else motion

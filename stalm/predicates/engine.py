@@ -240,7 +240,9 @@ class PredicateEngine:
         elif operator == "place":
             obj = arguments[0]
             forget_object(new, obj)
-            resweep_near(new, self.sim, obj, state.pose(obj), self._extent[obj], deadline)
+            resweep_near(
+                new, self.samples.hands.collider, obj, state.pose(obj), self._extent[obj], deadline
+            )
             check(deadline)
             new.picks[obj] = self.samples.pick_record(obj, state.pose(obj))
             self._refresh_grasps(new)

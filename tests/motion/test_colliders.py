@@ -219,3 +219,42 @@ def test_a_contact_at_the_tolerance_is_one_contact_to_both_engines() -> None:
         assert ["item_16"] in hits["pybullet"]  # the placement whose sweep grazes item_16
     finally:
         domain.close()
+
+
+def test_both_engines_resweep_a_moved_object_alike(problems: dict[str, Problem]) -> None:
+    """After a PLACE the cached motions are asked again about the moved object alone
+    (``sweep_near``): both engines answer alike for every motion of P2's predicates, with each
+    object moved to each of its own sampled placements, and some motions do touch it."""
+    from stalm.motion.sweeps import sweep_near
+
+    problem = problems["P2"]
+    domain = Domain.create(problem)
+    try:
+        sim = domain.sim
+        engine = PredicateEngine(problem, sim, domain.base_planner, PredicateSettings())
+        cache = engine.compute(problem.initial_state)
+        motions = [
+            *cache.base.values(),
+            *(m for record in cache.picks.values() for m in record.motions),
+            *(s.motion for samples in cache.placements.values() for s in samples),
+        ]
+        engines = [PyBulletCollider(sim), BatchCollider(sim)]
+        answers: list[tuple[bool, bool]] = []
+        for (obj, _), samples in sorted(cache.placements.items())[::3]:
+            body = sim.bodies.objects[obj]
+            radius = engine.samples.hands.extent[obj]
+            for sample in samples[:2]:
+                for motion in motions:
+                    row = []
+                    for collider in engines:
+                        sim.set_state(problem.initial_state)
+                        sim.place_object(obj, sample.pose)
+                        row.append(
+                            sweep_near(collider, motion, body, sample.pose.x, sample.pose.y, radius)
+                        )
+                    answers.append((row[0], row[1]))
+    finally:
+        domain.close()
+    assert all(reference == batched for reference, batched in answers)
+    assert any(reference for reference, _ in answers)
+    assert not all(reference for reference, _ in answers)

@@ -264,7 +264,7 @@ class StreamGeometry:
                 self._clear(self.start)
                 self.sim.place_object(pose.obj, pose.pose)
                 self.collision_tests += 1
-                hit = sweep_near(self.sim, route, body, x, y, radius)
+                hit = sweep_near(self.hands.collider, route, body, x, y, radius)
             self._route_hits[key] = hit
         if self._route_hits[key]:
             return True
@@ -272,7 +272,7 @@ class StreamGeometry:
             self._clear(motion.stand)
             self.sim.place_object(pose.obj, pose.pose)
             self.collision_tests += 1
-            if sweep_near(self.sim, motion.swept, body, x, y, radius):
+            if sweep_near(self.hands.collider, motion.swept, body, x, y, radius):
                 return True
         if motion.kind == "open":
             door = self.sim.bodies.doors[motion.subject]
