@@ -21,6 +21,13 @@ from stalm.world.scene import Sim
 SE2 = tuple[float, float, float]
 MAX_REPLANS = 6
 
+ROUTES_KEPT = 4096
+"""How many routes a :class:`BasePlanner` remembers (then it forgets them all and starts
+again: a trial asks for a few dozen distinct ones)."""
+
+RouteKey = tuple[frozenset[str], int, int, frozenset[tuple[int, int]]]
+"""A route's door setting, start and goal nodes, and banned edges (each as (low, high))."""
+
 
 @dataclass(frozen=True)
 class BasePath:
@@ -80,6 +87,9 @@ class BasePlanner:
     """How paths are checked against the world (:mod:`stalm.motion.colliders`)."""
     _roadmaps: dict[frozenset[str], Roadmap] = field(default_factory=dict)
     _collider: Collider | None = None
+    _routes: dict[RouteKey, tuple[int, ...] | None] = field(default_factory=dict)
+    """Routes found, by door setting, ends and banned edges: a roadmap never changes, and
+    Concretize's samplers ask for the same few routes hundreds of times in a trial."""
 
     @property
     def collider(self) -> Collider:
@@ -104,7 +114,15 @@ class BasePlanner:
         b = roadmap.anchor_index(goal[0], goal[1])
         if a is None or b is None:
             raise ValueError(f"base poses {start} / {goal} are not standing poses of this problem")
-        return roadmap.shortest_path(a, b, banned)
+        banned = frozenset((min(edge), max(edge)) for edge in banned)
+        key = (open_doors, a, b, banned)
+        if key not in self._routes:
+            if len(self._routes) >= ROUTES_KEPT:
+                self._routes.clear()
+            found = roadmap.shortest_path(a, b, banned)
+            self._routes[key] = None if found is None else tuple(found)
+        nodes = self._routes[key]
+        return None if nodes is None else list(nodes)
 
     def plan(
         self,

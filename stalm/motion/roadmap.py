@@ -32,6 +32,7 @@ import warnings
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import suppress
 from dataclasses import asdict, dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -86,6 +87,14 @@ class Roadmap:
     def edge_length(self, a: int, b: int) -> float:
         return float(np.linalg.norm(self.nodes[a] - self.nodes[b]))
 
+    @cached_property
+    def _lengths(self) -> tuple[tuple[float, ...], ...]:
+        """Each node's edge lengths, in :attr:`adjacency`'s order (computed on first use)."""
+        return tuple(
+            tuple(self.edge_length(node, nxt) for nxt in neighbours)
+            for node, neighbours in enumerate(self.adjacency)
+        )
+
     def shortest_path(
         self, start: int, goal: int, blocked: Iterable[tuple[int, int]] = ()
     ) -> list[int] | None:
@@ -105,10 +114,10 @@ class Roadmap:
                 return path[::-1]
             if so_far > cost.get(node, math.inf):
                 continue
-            for nxt in self.adjacency[node]:
+            for nxt, length in zip(self.adjacency[node], self._lengths[node], strict=True):
                 if (min(node, nxt), max(node, nxt)) in banned:
                     continue
-                new_cost = so_far + self.edge_length(node, nxt)
+                new_cost = so_far + length
                 if new_cost < cost.get(nxt, math.inf) - 1e-12:
                     cost[nxt] = new_cost
                     came_from[nxt] = node

@@ -113,3 +113,23 @@ def test_ik_reaches_a_reachable_gripper_pose_and_is_deterministic(domain_factory
     assert math.dist(sim.gripper_pose()[0], target[0]) < 0.005
     unreachable = ((-4.45, 0.75, 3.5), target[1])
     assert solve_ik(sim, stand, unreachable, np.random.default_rng(3), attempts=2) is None
+
+
+def test_a_route_asked_again_is_the_one_found_the_first_time(domain_factory) -> None:
+    """Routes are remembered by door setting, ends and banned edges (Concretize asks for the
+    same few hundreds of times): each answer is what the roadmap's search gives, a banned edge
+    is a different question, and a caller changing a returned route changes nothing kept."""
+    domain = domain_factory("P2")
+    planner = domain.base_planner
+    doors = frozenset({"kitchen_door"})
+    start = domain.problem.spec.robot.base
+    goal = domain.problem.spec.regions[0].base_pose
+    roadmap = planner.roadmap(doors)
+    a, b = roadmap.anchor_index(*start[:2]), roadmap.anchor_index(*goal[:2])
+    first = planner.route(start, goal, doors)
+    assert first is not None and first == roadmap.shortest_path(a, b)
+    first.append(-1)
+    assert planner.route(start, goal, doors) == roadmap.shortest_path(a, b)
+    edge = (first[1], first[0])  # either direction
+    detour = planner.route(start, goal, doors, [edge])
+    assert detour == roadmap.shortest_path(a, b, [edge]) and detour != first[:-1]
