@@ -110,13 +110,18 @@ def test_solve_gif_under_a_file_fails_before_solving(monkeypatch, capsys, tmp_pa
     assert "plan (" not in captured.out
 
 
-def test_a_result_that_cannot_be_written_goes_to_a_named_fallback(tmp_path, capsys) -> None:
+def test_a_result_that_cannot_be_written_goes_to_a_named_fallback(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    import tempfile
+
     from stalm.cli.solve_output import write_result_json
 
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # the fallback lands here
     blocker = tmp_path / "a-file"
     blocker.write_text("x")
     written = write_result_json({"problem": "P2", "plan": []}, blocker / "r.json")
-    assert written != blocker / "r.json" and written.exists()
+    assert written.parent == tmp_path and written.name.startswith("stalm-result-")
     assert json.loads(written.read_text()) == {"problem": "P2", "plan": []}
     assert str(written) in capsys.readouterr().err
 

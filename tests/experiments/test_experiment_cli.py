@@ -176,8 +176,15 @@ def test_a_killed_run_loses_no_finished_trial_and_resumes(tmp_path: Path) -> Non
         "--results",
         str(results),
     ]
+    temp = tmp_path / "tmp"  # a trial killed mid-run cannot remove its folder: keep it here
+    temp.mkdir()
+    env = {**os.environ, "TMPDIR": str(temp)}
     process = subprocess.Popen(
-        command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+        command,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+        env=env,
     )
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
@@ -191,7 +198,9 @@ def test_a_killed_run_loses_no_finished_trial_and_resumes(tmp_path: Path) -> Non
     assert 2 <= len(killed.records) < 6
     assert not killed.problems and not killed.skipped_partial_line
 
-    done = subprocess.run(command, capture_output=True, text=True, timeout=300, check=False)
+    done = subprocess.run(
+        command, capture_output=True, text=True, timeout=300, check=False, env=env
+    )
     assert done.returncode == 0, done.stderr
     after = read_records(results)
     _check_records(after.records, 6)
