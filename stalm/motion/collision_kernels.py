@@ -11,7 +11,11 @@ test marks cannot be in contact (the sphere model contains the arm's collision s
 bounding box its cylinder). The caller confirms candidates with PyBullet.
 
 Every primitive carries its axis-aligned bounding box, and a step's robot has one too, so most
-pairs are dismissed by six comparisons before any sphere is looked at.
+pairs are dismissed by six comparisons before any sphere is looked at; so is every link (its
+bounding sphere's box) before its bounding sphere is tested exactly, and within a link that
+comes near, each part of a few neighbouring spheres has a bounding sphere of its own. These
+prunings change what is computed, not what is found: a primitive the box of a sphere misses,
+the sphere misses too.
 """
 
 from __future__ import annotations
@@ -31,6 +35,14 @@ from stalm.motion.collision_primitives import (
     sphere_touches_cylinder,
 )
 from stalm.motion.panda import GRASP, link_frames_into
+
+PART_SIZE = 6
+"""Spheres in a part: a group's (a link's) consecutive spheres are tested in parts of this
+many, each behind its own bounding sphere. Consecutive spheres are neighbours: the fitted
+model's come in slices along each link's principal axis (:mod:`stalm.motion.panda_spheres`),
+a held can's along its axis. Measured on P3's and Clutter35's full computations: 6 spheres a
+part take a fifth less time than one part a link; reordering them (a k-d split) 3% less,
+which was not kept."""
 
 
 @numba.njit(cache=True)
@@ -57,15 +69,17 @@ def _group_touches(
     kind: int,
     b: int,
     state: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    model: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    model: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     boxes: np.ndarray,
     cylinders: np.ndarray,
 ) -> bool:
     """Does a sphere of group ``g`` touch box ``b`` (``kind`` 0) or cylinder ``b`` (1)? The
-    group's bounding sphere is tried first; its spheres are placed in the world only then,
-    once per step (most groups are far from every body most of the time)."""
-    frames, group_world, placed, centres, point, _ = state
-    sphere_link, sphere_centre, sphere_radius, groups = model
+    group's bounding sphere is tried first, then the bounding sphere of each of its parts (a
+    few neighbouring spheres), then that part's spheres; each is placed in the world only when
+    first needed in this step (most groups are far from every body most of the time, and a
+    link near a surface is near it with a few of its parts)."""
+    frames, group_world, placed, centres, point, part_world = state
+    sphere_link, sphere_centre, sphere_radius, parts, group_parts, part_bounds = model
     if not _touches_primitive(
         group_world[g, 0],
         group_world[g, 1],
@@ -78,30 +92,88 @@ def _group_touches(
         point,
     ):
         return False
-    if not placed[g]:
-        for i in range(groups[g, 0], groups[g, 1]):
-            link = sphere_link[i]
-            cx, cy, cz = sphere_centre[i, 0], sphere_centre[i, 1], sphere_centre[i, 2]
+    for q in range(group_parts[g, 0], group_parts[g, 1]):
+        link = sphere_link[parts[q, 0]]
+        if placed[q] == 0:  # the part's bounding sphere, in the world
             for r in range(3):
-                centres[i, r] = (
-                    frames[link, r, 0] * cx
-                    + frames[link, r, 1] * cy
-                    + frames[link, r, 2] * cz
+                part_world[q, r] = (
+                    frames[link, r, 0] * part_bounds[q, 0]
+                    + frames[link, r, 1] * part_bounds[q, 1]
+                    + frames[link, r, 2] * part_bounds[q, 2]
                     + frames[link, r, 3]
                 )
-        placed[g] = True
-    for i in range(groups[g, 0], groups[g, 1]):
-        if _touches_primitive(
-            centres[i, 0],
-            centres[i, 1],
-            centres[i, 2],
-            sphere_radius[i],
+            part_world[q, 3] = part_bounds[q, 3]
+            placed[q] = 1
+        if not _touches_primitive(
+            part_world[q, 0],
+            part_world[q, 1],
+            part_world[q, 2],
+            part_world[q, 3],
             kind,
             b,
             boxes,
             cylinders,
             point,
         ):
+            continue
+        if placed[q] == 1:  # its spheres, in the world
+            for i in range(parts[q, 0], parts[q, 1]):
+                cx, cy, cz = sphere_centre[i, 0], sphere_centre[i, 1], sphere_centre[i, 2]
+                for r in range(3):
+                    centres[i, r] = (
+                        frames[link, r, 0] * cx
+                        + frames[link, r, 1] * cy
+                        + frames[link, r, 2] * cz
+                        + frames[link, r, 3]
+                    )
+            placed[q] = 2
+        for i in range(parts[q, 0], parts[q, 1]):
+            if _touches_primitive(
+                centres[i, 0],
+                centres[i, 1],
+                centres[i, 2],
+                sphere_radius[i],
+                kind,
+                b,
+                boxes,
+                cylinders,
+                point,
+            ):
+                return True
+    return False
+
+
+@numba.njit(cache=True)
+def _bounding_sphere(
+    first: int, end: int, sphere_centre: np.ndarray, sphere_radius: np.ndarray, out: np.ndarray
+) -> None:
+    """A sphere containing spheres ``first`` to ``end`` (their box's centre, and the farthest
+    reach from it) into ``out`` (x, y, z, radius), in their link's frame."""
+    for i in range(3):
+        lo, hi = 1e18, -1e18
+        for k in range(first, end):
+            lo = min(lo, sphere_centre[k, i] - sphere_radius[k])
+            hi = max(hi, sphere_centre[k, i] + sphere_radius[k])
+        out[i] = (lo + hi) / 2
+    out[3] = 0.0
+    for k in range(first, end):
+        extent = (
+            math.sqrt(
+                (sphere_centre[k, 0] - out[0]) ** 2
+                + (sphere_centre[k, 1] - out[1]) ** 2
+                + (sphere_centre[k, 2] - out[2]) ** 2
+            )
+            + sphere_radius[k]
+        )
+        out[3] = max(out[3], extent)
+
+
+@numba.njit(cache=True)
+def _sphere_apart(sphere: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
+    """Is the sphere (x, y, z, radius) clear of the box from ``low`` to ``high``? Six
+    comparisons, cheaper than any exact test, and most group-primitive pairs are clear."""
+    for i in range(3):  # noqa: SIM110 - numba compiles loops, not generators
+        if sphere[i] + sphere[3] < low[i] or sphere[i] - sphere[3] > high[i]:
             return True
     return False
 
@@ -110,7 +182,7 @@ def _group_touches(
 def _mark_step(
     step: int,
     state: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    model: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    model: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     arm_groups: int,
     moving_boxes: np.ndarray,
     box_group: np.ndarray,
@@ -131,12 +203,12 @@ def _mark_step(
     spheres' caps). A body is compared with anything only if it meets the bounding box of the
     whole robot."""
     group_world = state[1]
-    groups = model[3]
+    group_parts = model[4]
     low, high, moving_low, moving_high, cylinder_low, cylinder_high, as_box, axis = work
     for i in range(3):
         low[i] = 1e18
         high[i] = -1e18
-    for g in range(groups.shape[0]):
+    for g in range(group_parts.shape[0]):
         for i in range(3):
             low[i] = min(low[i], group_world[g, i] - group_world[g, 3])
             high[i] = max(high[i], group_world[g, i] + group_world[g, 3])
@@ -173,6 +245,8 @@ def _mark_step(
             for g in range(arm_groups):
                 if hit:
                     break
+                if _sphere_apart(group_world[g], primitive_low, primitive_high):
+                    continue
                 hit = _group_touches(g, kind, b, state, model, boxes, cylinders)
             for m in range(moving_boxes.shape[0]):
                 if hit:
@@ -232,30 +306,30 @@ def candidate_steps(
         box_aabb(boxes[b], box_low[b], box_high[b])
     count = sphere_groups.shape[0]
     bounds = np.zeros((count, 4))  # each group's bounding sphere in its link's frame
+    group_parts = np.empty((count, 2), dtype=np.int64)
+    total = 0
     for g in range(count):
-        first, end = sphere_groups[g, 0], sphere_groups[g, 1]
-        for i in range(3):
-            lo, hi = 1e18, -1e18
-            for k in range(first, end):
-                lo = min(lo, sphere_centre[k, i] - sphere_radius[k])
-                hi = max(hi, sphere_centre[k, i] + sphere_radius[k])
-            bounds[g, i] = (lo + hi) / 2
-        for k in range(first, end):
-            extent = (
-                math.sqrt(
-                    (sphere_centre[k, 0] - bounds[g, 0]) ** 2
-                    + (sphere_centre[k, 1] - bounds[g, 1]) ** 2
-                    + (sphere_centre[k, 2] - bounds[g, 2]) ** 2
-                )
-                + sphere_radius[k]
-            )
-            bounds[g, 3] = max(bounds[g, 3], extent)
+        _bounding_sphere(
+            sphere_groups[g, 0], sphere_groups[g, 1], sphere_centre, sphere_radius, bounds[g]
+        )
+        group_parts[g, 0] = total
+        total += (sphere_groups[g, 1] - sphere_groups[g, 0] + PART_SIZE - 1) // PART_SIZE
+        group_parts[g, 1] = total
+    parts = np.empty((total, 2), dtype=np.int64)  # first and end sphere of each part
+    part_bounds = np.zeros((total, 4))
+    for g in range(count):
+        first = sphere_groups[g, 0]
+        for q in range(group_parts[g, 0], group_parts[g, 1]):
+            parts[q, 0] = first
+            parts[q, 1] = min(first + PART_SIZE, sphere_groups[g, 1])
+            _bounding_sphere(parts[q, 0], parts[q, 1], sphere_centre, sphere_radius, part_bounds[q])
+            first = parts[q, 1]
     frames = np.empty((12, 4, 4))
     group_world = np.empty((count, 4))
-    placed = np.zeros(count, dtype=np.bool_)
+    placed = np.zeros(total, dtype=np.int64)
     centres = np.empty((sphere_link.shape[0], 3))
-    state = (frames, group_world, placed, centres, np.empty(3), np.empty(1))
-    model = (sphere_link, sphere_centre, sphere_radius, sphere_groups)
+    state = (frames, group_world, placed, centres, np.empty(3), np.empty((total, 4)))
+    model = (sphere_link, sphere_centre, sphere_radius, parts, group_parts, part_bounds)
     base = np.eye(4)
     stand_frame = np.eye(4)
     moving = np.empty((held_boxes.shape[0] + base_boxes.shape[0], 16))
@@ -293,7 +367,7 @@ def candidate_steps(
                     + frames[link, r, 3]
                 )
             group_world[g, 3] = bounds[g, 3]
-            placed[g] = False
+        placed[:] = 0
         for m in range(held_boxes.shape[0]):
             place_box(frames[GRASP], held_boxes[m], moving[m])
         stand_frame[0, 0], stand_frame[0, 1], stand_frame[1, 0], stand_frame[1, 1] = c, -s, s, c

@@ -151,3 +151,51 @@ def test_ik_agrees_with_its_source(problems: dict[str, Problem]) -> None:
         assert np.allclose(q, q_again, atol=1e-9)
         assert abs(position - position_again) < 1e-9 and abs(angle - angle_again) < 1e-9
     assert sum(position < ik.POSITION_TOLERANCE for _, position, _ in compiled) >= 4
+
+
+def test_the_prunings_find_what_every_sphere_against_every_primitive_finds(
+    problems: dict[str, Problem],
+) -> None:
+    """The candidate test skips links, parts and primitives by bounding spheres and boxes;
+    without any of that (every sphere of the model against every box and cylinder of P3's
+    crowded scene, in numpy) the same bodies are candidates at every configuration of its
+    pick motions, and of the same motions with the joints shaken (so that the arm strikes
+    shelves and neighbours), and some are."""
+    rng = np.random.default_rng(5)
+    with Sim(problems["P3"].spec) as sim:
+        motions = _pick_motions(problems["P3"], sim, 1)
+        for stand, confs in list(motions):
+            shaken = np.asarray(confs, dtype=float)
+            shaken[:, 1:] += rng.normal(0.0, 0.6, shaken[:, 1:].shape)
+            motions.append((stand, [tuple(conf) for conf in shaken]))
+        collider = BatchCollider(sim)
+        scene = collider._scene
+        boxes, cylinders = scene.world(())
+        spheres = scene.spheres
+        marked = 0
+        for stand, confs in motions:
+            array = np.asarray(confs, dtype=float).reshape(-1, 8)
+            stands = np.tile(np.asarray(stand, dtype=float), (len(array), 1))
+            flags, _ = collider._candidates(stands, array, (), False)
+            for step, conf in enumerate(array):
+                frames = panda.link_frames(
+                    panda.base_frame(robot_model.arm_mount(stand, conf[0])), conf[1:]
+                )
+                link = frames[spheres.link]
+                centres = np.einsum("nij,nj->ni", link[:, :3, :3], spheres.centre)
+                centres += link[:, :3, 3]
+                expected = np.zeros(flags.shape[1], dtype=bool)
+                for box in boxes:
+                    rotation = box[6:15].reshape(3, 3)
+                    local = (centres - box[:3]) @ rotation
+                    excess = np.maximum(np.abs(local) - box[3:6], 0.0)
+                    if box[15] >= 0 and np.any((excess**2).sum(axis=1) < spheres.radius**2):
+                        expected[int(box[15])] = True
+                for x, y, bottom, top, radius, column in cylinders:
+                    radial = np.maximum(np.hypot(centres[:, 0] - x, centres[:, 1] - y) - radius, 0)
+                    axial = np.maximum(np.maximum(bottom - centres[:, 2], centres[:, 2] - top), 0)
+                    if column >= 0 and np.any(radial**2 + axial**2 < spheres.radius**2):
+                        expected[int(column)] = True
+                assert np.array_equal(flags[step], expected), f"step {step} at {stand}"
+                marked += int(expected.sum())
+    assert marked > 0
