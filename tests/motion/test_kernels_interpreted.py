@@ -160,7 +160,9 @@ def test_the_prunings_find_what_every_sphere_against_every_primitive_finds(
     without any of that (every sphere of the model against every box and cylinder of P3's
     crowded scene, in numpy) the same bodies are candidates at every configuration of its
     pick motions, and of the same motions with the joints shaken (so that the arm strikes
-    shelves and neighbours), and some are."""
+    shelves and neighbours), and some are; a body a sphere grazes (within 1e-9 m² of touching,
+    which rounding on another CPU may decide either way) may be either."""
+    graze = 1e-9  # m²
     rng = np.random.default_rng(5)
     with Sim(problems["P3"].spec) as sim:
         motions = _pick_motions(problems["P3"], sim, 1)
@@ -184,18 +186,25 @@ def test_the_prunings_find_what_every_sphere_against_every_primitive_finds(
                 link = frames[spheres.link]
                 centres = np.einsum("nij,nj->ni", link[:, :3, :3], spheres.centre)
                 centres += link[:, :3, 3]
-                expected = np.zeros(flags.shape[1], dtype=bool)
+                # (squared distance - squared radius) of every sphere's nearest approach to
+                # each body; within graze of 0 another CPU's rounding may decide either way
+                gap = np.full(flags.shape[1], np.inf)
                 for box in boxes:
                     rotation = box[6:15].reshape(3, 3)
                     local = (centres - box[:3]) @ rotation
                     excess = np.maximum(np.abs(local) - box[3:6], 0.0)
-                    if box[15] >= 0 and np.any((excess**2).sum(axis=1) < spheres.radius**2):
-                        expected[int(box[15])] = True
+                    margin = (excess**2).sum(axis=1) - spheres.radius**2
+                    if box[15] >= 0:
+                        gap[int(box[15])] = min(gap[int(box[15])], margin.min())
                 for x, y, bottom, top, radius, column in cylinders:
                     radial = np.maximum(np.hypot(centres[:, 0] - x, centres[:, 1] - y) - radius, 0)
                     axial = np.maximum(np.maximum(bottom - centres[:, 2], centres[:, 2] - top), 0)
-                    if column >= 0 and np.any(radial**2 + axial**2 < spheres.radius**2):
-                        expected[int(column)] = True
-                assert np.array_equal(flags[step], expected), f"step {step} at {stand}"
-                marked += int(expected.sum())
+                    margin = radial**2 + axial**2 - spheres.radius**2
+                    if column >= 0:
+                        gap[int(column)] = min(gap[int(column)], margin.min())
+                surely, maybe = gap < -graze, gap < graze
+                found = flags[step]
+                assert not np.any(surely & ~found), f"missed at step {step} at {stand}"
+                assert not np.any(found & ~maybe), f"extra at step {step} at {stand}"
+                marked += int(surely.sum())
     assert marked > 0
