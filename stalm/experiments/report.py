@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 from collections import defaultdict
 from collections.abc import Iterable, Sequence
@@ -65,6 +66,35 @@ def latest_records(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     for record in records:
         latest[str(record["key"])] = record
     return list(latest.values())
+
+
+def overrides_text(record: dict[str, Any]) -> str:
+    """The settings a record's run changed from the defaults (``--set``), as ``k=v, ...``."""
+    changed = (record.get("config") or {}).get("settings") or {}
+    return ", ".join(f"{key}={json.dumps(changed[key])}" for key in sorted(changed))
+
+
+def rows_by_settings(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The newest record of each trial, each under the row it belongs to.
+
+    A row is an arm label run with one set of settings. Two results files may hold the same
+    arm run with different ``--set`` overrides (``stalm-symbolic`` and ``stalm-symbolic``
+    with ``predicates.relevant_only=true``); averaged into one row they would describe
+    neither, so where one label holds more than one set of overrides, each record's label
+    gains its overrides in brackets (the defaults' records keep the plain label). A label
+    that holds one set keeps its name: the arms that encode their settings in their labels
+    (Table 3's noisy rows) read as they always did."""
+    latest = latest_records(records)
+    settings_of: dict[str, set[str]] = defaultdict(set)
+    for record in latest:
+        settings_of[str(record["arm"])].add(overrides_text(record))
+    rows = []
+    for record in latest:
+        overrides = overrides_text(record)
+        if len(settings_of[str(record["arm"])]) > 1 and overrides:
+            record = {**record, "arm": f"{record['arm']} [{overrides}]"}
+        rows.append(record)
+    return rows
 
 
 def build_table(records: Iterable[dict[str, Any]]) -> Table:
@@ -302,7 +332,11 @@ def write_report(
     paper: bool = False,
     formats: Sequence[str] = ("png", "svg"),
 ) -> tuple[str, ReportFiles]:
-    """Write ``name``.md, ``name``.csv and the plots into ``out_dir``; return the Markdown."""
+    """Write ``name``.md, ``name``.csv and the plots into ``out_dir``; return the Markdown.
+
+    Every table and plot counts the newest record of each trial (a retried trial once), in
+    rows split by settings where one label ran with several (:func:`rows_by_settings`)."""
+    records = rows_by_settings(records)
     table = build_table(records)
     shares = failure_shares(records)
     sized = has_sizes(records)
@@ -316,12 +350,11 @@ def write_report(
     if paper and not sized:
         text += "\nIn brackets: the paper's Table 2 (50 trials, GPT-4-turbo, full budgets).\n"
     text += "\n## Failed task plans by kind (Figure 5)\n\n" + markdown_failures(shares)
-    latest = latest_records(records)
     noise_curve = None
-    if any(noise_rate(record) is not None for record in latest):
+    if any(noise_rate(record) is not None for record in records):
         text += "\n## The noisy proposer (no language model): injected against classified kinds\n\n"
-        text += markdown_confusion(confusion(latest))
-        noise_curve = curve(latest)
+        text += markdown_confusion(confusion(records))
+        noise_curve = curve(records)
         if noise_curve is not None:
             text += "\n## Success rate against the noisy proposer's error rate\n\n"
             text += markdown_curve(noise_curve)

@@ -138,3 +138,25 @@ def test_a_scale_run_is_reported_by_object_count_with_the_log_log_slope(tmp_path
     text, files = write_report(records, tmp_path, name="s")
     assert "| row | 1/1, 4.0 s | 1/1, 8.0 s | 1/1, 16.0 s | 0/1, t/o | 1.00 |" in text
     assert any(path.name == "s-scale.png" for path in files.plots)
+
+
+def test_one_arm_run_with_two_settings_is_two_rows_and_a_retried_trial_counts_once(
+    tmp_path: Path,
+) -> None:
+    """Two results files of ``stalm-symbolic``, one run with ``--set``: averaged into one row
+    they would describe neither run. A trial recorded twice (a rerun) counts once, the newest."""
+    relevant = {"settings": {"predicates.relevant_only": True}}
+    records = [
+        _record("a8", "stalm-symbolic", "g8", True, 4.0, objects=8, config={}),
+        _record("a64", "stalm-symbolic", "g64", False, 600.0, objects=64, config={}),
+        _record("a64", "stalm-symbolic", "g64", True, 32.0, objects=64, config={}),  # rerun
+        _record("r8", "stalm-symbolic", "g8", True, 2.0, objects=8, config=relevant),
+        _record("r64", "stalm-symbolic", "g64", True, 16.0, objects=64, config=relevant),
+    ]
+    text, _ = write_report(records, tmp_path, name="split", formats=())
+    assert "| stalm-symbolic | 1/1, 4.0 s | 1/1, 32.0 s | 1.00 |" in text
+    relevant_row = "| stalm-symbolic [predicates.relevant_only=true] | 1/1, 2.0 s | 1/1, 16.0 s |"
+    assert relevant_row + " 1.00 |" in text
+    # one set of settings under a label: the label stays as it is
+    alone, _ = write_report(records[3:], tmp_path, name="alone", formats=())
+    assert "| stalm-symbolic | 1/1, 2.0 s | 1/1, 16.0 s | 1.00 |" in alone
