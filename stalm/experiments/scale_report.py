@@ -77,30 +77,48 @@ def markdown_scale(cells: dict[tuple[str, int], ScaleCell]) -> str:
     return "\n".join(lines) + "\n"
 
 
+ROW_MARKERS = ("o", "s", "^", "D", "v", "P")
+ROW_LINES = ("-", "--", "-.", ":")
+
+
 def plot_scale(cells: dict[tuple[str, int], ScaleCell], path: Path) -> Path:
     """Success rate (left) and mean time of successes, log-log (right), by object count."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, NullFormatter
 
     figure, (rate_axis, time_axis) = plt.subplots(1, 2, figsize=(10, 4))
-    for row in sorted({r for r, _ in cells}):
+    for index, row in enumerate(sorted({r for r, _ in cells})):
+        # rows that solve every problem lie on one line at 1.0: each row gets its own marker
+        # and dashes, and a smaller marker than the row before, so none hides another
+        style = {
+            "marker": ROW_MARKERS[index % len(ROW_MARKERS)],
+            "linestyle": ROW_LINES[index % len(ROW_LINES)],
+            "markersize": max(3.0, 9.0 - 1.5 * index),
+        }
         sizes = sorted(size for r, size in cells if r == row)
         rates = [cells[(row, n)].successes / cells[(row, n)].trials for n in sizes]
-        rate_axis.plot(sizes, rates, marker="o", label=row)
+        rate_axis.plot(sizes, rates, label=row, **style)
         timed = [(n, cells[(row, n)].mean_success_time_s) for n in sizes]
         points = [(n, t) for n, t in timed if t is not None]
         if points:
             fitted = slope(points)
             label = row if fitted is None else f"{row} (slope {fitted:.2f})"
-            time_axis.plot([n for n, _ in points], [t for _, t in points], marker="o", label=label)
+            time_axis.plot([n for n, _ in points], [t for _, t in points], label=label, **style)
     rate_axis.set(xlabel="movable objects", ylabel="success rate", ylim=(-0.05, 1.05))
     rate_axis.set_xscale("log", base=2)
     time_axis.set(xlabel="movable objects", ylabel="mean time of successes (s)")
     time_axis.set_xscale("log", base=2)
     time_axis.set_yscale("log")
+    seconds = FuncFormatter(lambda value, _: f"{value:g}")  # 20, not 2 x 10^1
+    time_axis.yaxis.set_major_formatter(seconds)
+    time_axis.yaxis.set_minor_formatter(seconds)
+    every_size = sorted({size for _, size in cells})
     for axis in (rate_axis, time_axis):
+        axis.set_xticks(every_size, [str(size) for size in every_size])  # 64, not 2^6
+        axis.xaxis.set_minor_formatter(NullFormatter())
         axis.grid(True, which="both", alpha=0.3)
         axis.legend(fontsize=8)
     figure.tight_layout()
