@@ -68,31 +68,53 @@ def latest_records(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     return list(latest.values())
 
 
-def overrides_text(record: dict[str, Any]) -> str:
-    """The settings a record's run changed from the defaults (``--set``), as ``k=v, ...``."""
-    changed = (record.get("config") or {}).get("settings") or {}
-    return ", ".join(f"{key}={json.dumps(changed[key])}" for key in sorted(changed))
+def config_choices(record: dict[str, Any]) -> dict[str, str]:
+    """The choices a record's trial ran with (its ``config``, what its key hashes), flat:
+    dotted names to JSON values; the ``--set`` overrides beyond the flat choices
+    (``config["settings"]``) under their own dotted names."""
+    choices: dict[str, str] = {}
+
+    def walk(prefix: str, value: Any) -> None:
+        if isinstance(value, dict):
+            for name, inner in value.items():
+                walk(f"{prefix}{name}.", inner)
+        else:
+            choices[prefix[:-1]] = json.dumps(value)
+
+    config = dict(record.get("config") or {})
+    overrides = config.pop("settings", None) or {}
+    walk("", config)
+    choices.update({name: json.dumps(value) for name, value in overrides.items()})
+    return choices
 
 
 def rows_by_settings(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     """The newest record of each trial, each under the row it belongs to.
 
-    A row is an arm label run with one set of settings. Two results files may hold the same
-    arm run with different ``--set`` overrides (``stalm-symbolic`` and ``stalm-symbolic``
-    with ``predicates.relevant_only=true``); averaged into one row they would describe
-    neither, so where one label holds more than one set of overrides, each record's label
-    gains its overrides in brackets (the defaults' records keep the plain label). A label
-    that holds one set keeps its name: the arms that encode their settings in their labels
-    (Table 3's noisy rows) read as they always did."""
+    A row is an arm label run with one configuration. Results files given together may hold
+    the same arm run with different choices (``stalm-symbolic``, and ``stalm-symbolic`` run
+    with ``--set predicates.relevant_only=true``); averaged into one row they would describe
+    neither. So where one label ran with several configurations, each record's label gains,
+    in brackets, the choices that differ among them and that its own configuration names (a
+    run with the defaults, whose configuration does not name an override, keeps the plain
+    label). A label that ran with one configuration keeps its name: the arms that say their
+    settings in their labels (Table 3's noisy rows) read as they always did."""
     latest = latest_records(records)
-    settings_of: dict[str, set[str]] = defaultdict(set)
-    for record in latest:
-        settings_of[str(record["arm"])].add(overrides_text(record))
+    choices = [config_choices(record) for record in latest]
+    names: dict[str, set[str]] = defaultdict(set)
+    for record, chosen in zip(latest, choices, strict=True):
+        names[str(record["arm"])] |= set(chosen)
+    values: dict[tuple[str, str], set[str]] = defaultdict(set)  # (arm, name) -> values
+    for record, chosen in zip(latest, choices, strict=True):
+        for name in names[str(record["arm"])]:
+            values[(str(record["arm"]), name)].add(chosen.get(name, "(default)"))
     rows = []
-    for record in latest:
-        overrides = overrides_text(record)
-        if len(settings_of[str(record["arm"])]) > 1 and overrides:
-            record = {**record, "arm": f"{record['arm']} [{overrides}]"}
+    for record, chosen in zip(latest, choices, strict=True):
+        arm = str(record["arm"])
+        differing = [name for name in sorted(chosen) if len(values[(arm, name)]) > 1]
+        if differing:
+            told = ", ".join(f"{name}={chosen[name]}" for name in differing)
+            record = {**record, "arm": f"{record['arm']} [{told}]"}
         rows.append(record)
     return rows
 

@@ -13,6 +13,7 @@ from stalm.experiments.report import (
     failure_shares,
     markdown_failures,
     markdown_table,
+    rows_by_settings,
     write_report,
 )
 
@@ -160,3 +161,18 @@ def test_one_arm_run_with_two_settings_is_two_rows_and_a_retried_trial_counts_on
     # one set of settings under a label: the label stays as it is
     alone, _ = write_report(records[3:], tmp_path, name="alone", formats=())
     assert "| stalm-symbolic | 1/1, 2.0 s | 1/1, 16.0 s | 1.00 |" in alone
+
+
+def test_a_flat_choice_that_differs_splits_the_rows_too(tmp_path: Path) -> None:
+    """``--set reuse_tree=false`` changes a flat choice of the record's ``config`` (not its
+    ``settings``): both rows say which value they ran with."""
+    records = [
+        _record("p", "stalm-symbolic", "P3", True, 4.0, config={"reuse_tree": True}),
+        _record("q", "stalm-symbolic", "P3", False, 30.0, config={"reuse_tree": False}),
+    ]
+    table = build_table(rows_by_settings(records))
+    assert table.rows == ("stalm-symbolic [reuse_tree=true]", "stalm-symbolic [reuse_tree=false]")
+    assert table.cells[("stalm-symbolic [reuse_tree=false]", "P3")].successes == 0
+    # the same choices everywhere: one row, as before
+    same = [{**record, "config": {"reuse_tree": True}} for record in records]
+    assert build_table(rows_by_settings(same)).rows == ("stalm-symbolic",)
