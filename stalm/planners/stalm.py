@@ -279,6 +279,7 @@ def _plain_proposer(settings: RunSettings, kind: str) -> TaskPlanProposer:
         return SymbolicProposer(
             goal_relations_only=settings.proposer.goal_relations_only,
             break_occlusion_cycles=settings.proposer.break_occlusion_cycles,
+            needed_objects_only=settings.proposer.needed_objects_only,
         )
     backend = llm_backend(settings)
     return LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))

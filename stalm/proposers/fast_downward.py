@@ -32,6 +32,7 @@ from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.feedback import FailedStep
 from stalm.proposers.language_model import Proposal
 from stalm.proposers.occlusion_cycles import without_occlusion_cycles
+from stalm.proposers.task_objects import task_objects
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -163,6 +164,10 @@ class SymbolicProposer:
     break_occlusion_cycles: bool = True
     """When the abstraction has no plan, plan once more without the pick occlusions that lie
     on a cycle (:mod:`stalm.proposers.occlusion_cycles`); the proposal names them."""
+    needed_objects_only: bool = True
+    """Give Fast Downward only the movable objects an action on which can matter
+    (:mod:`stalm.proposers.task_objects`): no plan is lost, and the grounding no longer
+    grows with the clutter the predicates say nothing about."""
 
     @property
     def name(self) -> str:
@@ -295,20 +300,17 @@ class SymbolicProposer:
         reasons: list[str] = []
         if _past(deadline):  # the caller stops with 'timeout'; no Fast Downward past it
             return plans, reasons
+        goal = goal_literals(problem)
+        facts = sorted(init | set(_rule_literals(rules)))
+        if self.needed_objects_only:
+            vocabulary, facts = task_objects(vocabulary, facts, goal)
         with tempfile.TemporaryDirectory(prefix="stalm-fd-") as folder:
             work = Path(folder)
             (work / "domain.pddl").write_text(
                 domain_pddl(feedback=True, goal_relations_only=self.goal_relations_only)
             )
             (work / "problem.pddl").write_text(
-                problem_pddl(
-                    vocabulary,
-                    sorted(init | set(_rule_literals(rules))),
-                    goal_literals(problem),
-                    "state",
-                    feedback=True,
-                    failures=len(rules),
-                )
+                problem_pddl(vocabulary, facts, goal, "state", feedback=True, failures=len(rules))
             )
             try:
                 translate_task(work, limit())

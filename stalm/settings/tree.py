@@ -216,6 +216,9 @@ class ProposerSection:
     """When the predicate abstraction has no plan, the symbolic proposer plans once more
     without the pick occlusions that lie on a cycle (beyond the paper:
     :mod:`stalm.proposers.occlusion_cycles`)."""
+    needed_objects_only: bool = True
+    """The symbolic proposer gives Fast Downward only the movable objects an action on which
+    can matter (beyond the paper: :mod:`stalm.proposers.task_objects`)."""
     noise: NoiseSection = field(default_factory=NoiseSection)
 
     def __post_init__(self) -> None:

@@ -109,6 +109,7 @@ REACHES = [
         "stalm",
         lambda p: p.proposer.break_occlusion_cycles,
     ),
+    ("proposer.needed_objects_only", False, "stalm", lambda p: p.proposer.needed_objects_only),
     ("prompt.ask_challenges", False, "iterative-replanning", lambda p: p.options.ask_challenges),
 ]
 
