@@ -167,7 +167,9 @@ class SymbolicProposer:
     needed_objects_only: bool = True
     """Give Fast Downward only the movable objects an action on which can matter
     (:mod:`stalm.proposers.task_objects`): no plan is lost, and the grounding no longer
-    grows with the clutter the predicates say nothing about."""
+    grows with the clutter the predicates say nothing about. Only with
+    ``goal_relations_only``: a relative PLACE next to a left-out object could be the one
+    placement there that no occlusion or failure blocks."""
 
     @property
     def name(self) -> str:
@@ -302,7 +304,7 @@ class SymbolicProposer:
             return plans, reasons
         goal = goal_literals(problem)
         facts = sorted(init | set(_rule_literals(rules)))
-        if self.needed_objects_only:
+        if self.needed_objects_only and self.goal_relations_only:
             vocabulary, facts = task_objects(vocabulary, facts, goal)
         with tempfile.TemporaryDirectory(prefix="stalm-fd-") as folder:
             work = Path(folder)

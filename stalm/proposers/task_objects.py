@@ -19,7 +19,10 @@ Every other object only stands somewhere: picking it clears no occlusion (it cau
 changes no region whose change is read, and placing it makes nothing true that a
 precondition or the goal reads. Literals naming a left-out object are left out with it.
 
-The language model's prompt is not touched: it lists every object, as the paper's does.
+This holds where relative placements are grounded only for the goal's relations (the
+proposer's ``goal_relations_only``, on by default), whose references the goal names; the
+proposer prunes only then. The language model's prompt is not touched: it lists every
+object, as the paper's does.
 """
 
 from __future__ import annotations
