@@ -75,3 +75,20 @@ def test_the_proposer_plans_alike_without_an_object_that_cannot_matter(
     needed = SymbolicProposer().propose(problem, problem.initial_state, literals, 3, seed=0)
     assert needed.plans and needed.plans == plain.plans
     assert all("bottle2" not in str(plan) for plan in needed.plans)
+
+
+def test_no_object_is_left_out_where_any_relative_placement_is_grounded(
+    problems, initial_literals, monkeypatch
+) -> None:
+    """With ``goal_relations_only`` off, a relative PLACE next to any object is an action of
+    its own, which leaving the object out would lose: the proposer keeps every object."""
+    import stalm.proposers.fast_downward as fast_downward
+
+    def pruning_not_expected(*args: object) -> None:
+        raise AssertionError("objects left out while every relative placement is grounded")
+
+    monkeypatch.setattr(fast_downward, "task_objects", pruning_not_expected)
+    problem = problems["P2"]
+    proposer = SymbolicProposer(goal_relations_only=False)
+    proposal = proposer.propose(problem, problem.initial_state, initial_literals("P2"), 1, seed=0)
+    assert proposal.plans
