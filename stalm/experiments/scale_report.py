@@ -77,6 +77,12 @@ def markdown_scale(cells: dict[tuple[str, int], ScaleCell]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _minor_seconds(value: float, _: object) -> str:
+    """Minor ticks of the log time axis: 2, 3 and 5 of each decade written, the rest not."""
+    leading = f"{value:.0e}"[0]
+    return f"{value:g}" if leading in "235" else ""
+
+
 ROW_MARKERS = ("o", "s", "^", "D", "v", "P")
 ROW_LINES = ("-", "--", "-.", ":")
 
@@ -112,16 +118,23 @@ def plot_scale(cells: dict[tuple[str, int], ScaleCell], path: Path) -> Path:
     time_axis.set(xlabel="movable objects", ylabel="mean time of successes (s)")
     time_axis.set_xscale("log", base=2)
     time_axis.set_yscale("log")
-    seconds = FuncFormatter(lambda value, _: f"{value:g}")  # 20, not 2 x 10^1
-    time_axis.yaxis.set_major_formatter(seconds)
-    time_axis.yaxis.set_minor_formatter(seconds)
+    time_axis.yaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))  # 20
+    time_axis.yaxis.set_minor_formatter(FuncFormatter(_minor_seconds))
     every_size = sorted({size for _, size in cells})
     for axis in (rate_axis, time_axis):
         axis.set_xticks(every_size, [str(size) for size in every_size])  # 64, not 2^6
         axis.xaxis.set_minor_formatter(NullFormatter())
         axis.grid(True, which="both", alpha=0.3)
-        axis.legend(fontsize=8)
-    figure.tight_layout()
+    # one legend below both plots (the time plot's labels carry the slopes): inside either
+    # plot it hid a line wherever it was put
+    handles, labels = time_axis.get_legend_handles_labels()
+    shown = {label.split(" (slope")[0] for label in labels}
+    for handle, label in zip(*rate_axis.get_legend_handles_labels(), strict=True):
+        if label not in shown:  # a row without a success has no time to plot
+            handles.append(handle)
+            labels.append(label)
+    figure.legend(handles, labels, loc="lower center", ncol=2, fontsize=8)
+    figure.tight_layout(rect=(0, 0.06 * (1 + (len(labels) + 1) // 2), 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(path)
     plt.close(figure)
