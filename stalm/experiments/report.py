@@ -32,6 +32,7 @@ from stalm.experiments.noise_report import (
 from stalm.experiments.paper_tables import TABLE2
 from stalm.experiments.scale_report import has_sizes, markdown_scale, plot_scale, scale_cells
 from stalm.search.concretize import FAILURE_KINDS
+from stalm.settings.io import dotted
 
 
 @dataclass(frozen=True)
@@ -72,20 +73,9 @@ def config_choices(record: dict[str, Any]) -> dict[str, str]:
     """The choices a record's trial ran with (its ``config``, what its key hashes), flat:
     dotted names to JSON values; the ``--set`` overrides beyond the flat choices
     (``config["settings"]``) under their own dotted names."""
-    choices: dict[str, str] = {}
-
-    def walk(prefix: str, value: Any) -> None:
-        if isinstance(value, dict):
-            for name, inner in value.items():
-                walk(f"{prefix}{name}.", inner)
-        else:
-            choices[prefix[:-1]] = json.dumps(value)
-
     config = dict(record.get("config") or {})
     overrides = config.pop("settings", None) or {}
-    walk("", config)
-    choices.update({name: json.dumps(value) for name, value in overrides.items()})
-    return choices
+    return {name: json.dumps(value) for name, value in (dotted(config) | overrides).items()}
 
 
 def rows_by_settings(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:

@@ -96,6 +96,7 @@ def plot_scale(cells: dict[tuple[str, int], ScaleCell], path: Path) -> Path:
     from matplotlib.ticker import FuncFormatter, NullFormatter
 
     figure, (rate_axis, time_axis) = plt.subplots(1, 2, figsize=(10, 4))
+    legend: list[tuple[Any, str]] = []  # one entry a row: its time line (with the slope), if any
     for index, row in enumerate(sorted({r for r, _ in cells})):
         # rows that solve every problem lie on one line at 1.0: each row gets its own marker
         # and dashes, and a smaller marker than the row before, so none hides another
@@ -106,13 +107,15 @@ def plot_scale(cells: dict[tuple[str, int], ScaleCell], path: Path) -> Path:
         }
         sizes = sorted(size for r, size in cells if r == row)
         rates = [cells[(row, n)].successes / cells[(row, n)].trials for n in sizes]
-        rate_axis.plot(sizes, rates, label=row, **style)
+        (line,) = rate_axis.plot(sizes, rates, **style)
         timed = [(n, cells[(row, n)].mean_success_time_s) for n in sizes]
         points = [(n, t) for n, t in timed if t is not None]
+        label = row
         if points:
             fitted = slope(points)
             label = row if fitted is None else f"{row} (slope {fitted:.2f})"
-            time_axis.plot([n for n, _ in points], [t for _, t in points], label=label, **style)
+            time_axis.plot([n for n, _ in points], [t for _, t in points], **style)
+        legend.append((line, label))
     rate_axis.set(xlabel="movable objects", ylabel="success rate", ylim=(-0.05, 1.05))
     rate_axis.set_xscale("log", base=2)
     time_axis.set(xlabel="movable objects", ylabel="mean time of successes (s)")
@@ -125,16 +128,10 @@ def plot_scale(cells: dict[tuple[str, int], ScaleCell], path: Path) -> Path:
         axis.set_xticks(every_size, [str(size) for size in every_size])  # 64, not 2^6
         axis.xaxis.set_minor_formatter(NullFormatter())
         axis.grid(True, which="both", alpha=0.3)
-    # one legend below both plots (the time plot's labels carry the slopes): inside either
-    # plot it hid a line wherever it was put
-    handles, labels = time_axis.get_legend_handles_labels()
-    shown = {label.split(" (slope")[0] for label in labels}
-    for handle, label in zip(*rate_axis.get_legend_handles_labels(), strict=True):
-        if label not in shown:  # a row without a success has no time to plot
-            handles.append(handle)
-            labels.append(label)
-    figure.legend(handles, labels, loc="lower center", ncol=2, fontsize=8)
-    figure.tight_layout(rect=(0, 0.06 * (1 + (len(labels) + 1) // 2), 1, 1))
+    # one legend below both plots, each row with its slope: inside either plot it hid a line
+    if legend:
+        figure.legend(*zip(*legend, strict=True), loc="lower center", ncol=2, fontsize=8)
+    figure.tight_layout(rect=(0, 0.06 * (1 + (len(legend) + 1) // 2), 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(path)
     plt.close(figure)

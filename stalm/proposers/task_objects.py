@@ -50,10 +50,10 @@ def task_objects(
         if literal.name != POSITION:
             needed |= {name for name in literal.args if name in movables}
     watched_regions = {
-        literal.args[index]
+        literal.args[REGION_NAMING_FEEDBACK[literal.name]]
         for literal in init
-        for name, index in REGION_NAMING_FEEDBACK.items()
-        if literal.name == name and len(literal.args) > index
+        if literal.name in REGION_NAMING_FEEDBACK  # a wrong arity is problem_pddl's error
+        and len(literal.args) > REGION_NAMING_FEEDBACK[literal.name]
     }
     needed |= {
         literal.args[0]

@@ -271,13 +271,13 @@ def to_dict(settings: RunSettings) -> dict[str, dict[str, Any]]:
     return {section: _plain(getattr(settings, section)) for section in _sections()}
 
 
-def _flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    """Nested sections as one mapping of dotted keys to values."""
+def dotted(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested sections as one mapping of dotted keys to values (a record's settings too)."""
     flat: dict[str, Any] = {}
     for name, value in data.items():
         key = f"{prefix}{name}"
         if isinstance(value, Mapping):
-            flat |= _flat(value, f"{key}.")
+            flat |= dotted(value, f"{key}.")
         else:
             flat[key] = value
     return flat
@@ -285,7 +285,7 @@ def _flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
 
 def changed(settings: RunSettings, base: RunSettings | None = None) -> dict[str, Any]:
     """The dotted keys whose values differ from ``base`` (default: the defaults)."""
-    ours, theirs = _flat(to_dict(settings)), _flat(to_dict(base or RunSettings()))
+    ours, theirs = dotted(to_dict(settings)), dotted(to_dict(base or RunSettings()))
     return {key: value for key, value in ours.items() if value != theirs[key]}
 
 
