@@ -14,7 +14,7 @@ from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
 from stalm.errors import StalmError
 from stalm.files import read_json_file
-from stalm.world.problem import Problem, available_problems, load_problem
+from stalm.world.problem import Problem, available_problems, load_problem, no_problems_error
 from stalm.world.state import State
 
 commands = typer.Typer()
@@ -77,6 +77,8 @@ def problems_command(
         if file
         else [load_problem(p) for p in available_problems()]
     )
+    if not problems:
+        raise no_problems_error()  # an empty table would look like success
     if check if check is not None else bool(file):
         from stalm.motion.problem_check import check_problem_geometry
 

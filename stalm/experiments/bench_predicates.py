@@ -27,18 +27,18 @@ from stalm.domain.mdp import Domain
 from stalm.predicates.cache import PredicateCache
 from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.samples import PredicateSettings
-from stalm.world.problem import load_problem, problems_dir
+from stalm.world.problem import load_problem, shipped_problems_dir
 from stalm.world.state import State
 
 BENCH_LAYOUTS = ("layouts/clutter35.yaml",)
-"""Layouts beyond P1-P6 in the default list, under the problems folder."""
+"""Layouts beyond P1-P6 in the default list, under the package's problems folder."""
 
 
 def default_problems() -> list[str]:
     """P1..P6 and the benchmark layouts (by path)."""
     return [
         *("P1", "P2", "P3", "P4", "P5", "P6"),
-        *(str(problems_dir() / layout) for layout in BENCH_LAYOUTS),
+        *(str(shipped_problems_dir() / layout) for layout in BENCH_LAYOUTS),
     ]
 
 

@@ -1,8 +1,10 @@
 """A loaded problem: its validated spec, initial State and goal; and where problem files live.
 
-Problems are found by name (``P5``, case-insensitive) in the directory named by the
-``STALM_PROBLEMS_DIR`` environment variable, else the repository's ``problems/``; a path to a
-YAML file is accepted anywhere a name is.
+Problems are found by name (``P5``, case-insensitive): first in the folders the
+``STALM_PROBLEMS_DIR`` environment variable names (one, or several separated by ``os.pathsep``),
+then among the problems shipped inside the package (``stalm/problems/``, package data, so they
+are found after any install, from any folder). A file there adds a problem, or overrides a
+shipped one of the same name. A path to a YAML file is accepted anywhere a name is.
 """
 
 from __future__ import annotations
@@ -97,16 +99,48 @@ class Problem:
         )
 
 
-def problems_dir() -> Path:
-    """Where named problems are looked up."""
-    env = os.environ.get("STALM_PROBLEMS_DIR")
-    if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[2] / "problems"
+PROBLEMS_ENV = "STALM_PROBLEMS_DIR"
+"""The environment variable naming folders of problem files searched before the shipped ones."""
+
+
+def shipped_problems_dir() -> Path:
+    """The folder of problem files inside the package: P1..P6 and ``layouts/``."""
+    return Path(__file__).resolve().parent.parent / "problems"
+
+
+def problems_dirs() -> tuple[Path, ...]:
+    """Where named problems are looked up, the first folder holding a name winning:
+    ``$STALM_PROBLEMS_DIR``'s folders, then :func:`shipped_problems_dir`. A StalmError names a
+    folder of ``$STALM_PROBLEMS_DIR`` that is not one."""
+    env = os.environ.get(PROBLEMS_ENV, "")
+    extra = [Path(part) for part in env.split(os.pathsep) if part.strip()]
+    for folder in extra:
+        if not folder.is_dir():
+            raise StalmError(f"${PROBLEMS_ENV}: {folder} is not a folder")
+    return (*extra, shipped_problems_dir())
 
 
 def available_problems() -> list[Path]:
-    return sorted(path for path in problems_dir().glob("*.yaml") if not path.name.startswith("_"))
+    """The problem files found by name, one per name (case-insensitive), sorted by name; a
+    file whose name starts with ``_`` is none."""
+    found: dict[str, Path] = {}
+    for folder in problems_dirs():
+        for path in sorted(folder.glob("*.yaml")):
+            if not path.name.startswith("_"):
+                found.setdefault(path.stem.lower(), path)
+    return [found[name] for name in sorted(found)]
+
+
+def _folders_text() -> str:
+    return " or ".join(str(folder) for folder in problems_dirs())
+
+
+def no_problems_error() -> StalmError:
+    """What to say when no problem file is found by name at all (a broken install)."""
+    return StalmError(
+        f"no problem files in {_folders_text()}: the package's own (stalm/problems) are missing, "
+        f"so reinstall stalm, or name a folder of problem files in ${PROBLEMS_ENV}"
+    )
 
 
 def load_problem(name_or_path: str | Path) -> Problem:
@@ -120,6 +154,6 @@ def load_problem(name_or_path: str | Path) -> Problem:
             return Problem(load_problem_file(candidate), str(candidate))
     names = ", ".join(c.stem.upper() for c in available_problems()) or "none"
     raise StalmError(
-        f"unknown problem '{name_or_path}': no file {wanted}.yaml in {problems_dir()} "
+        f"unknown problem '{name_or_path}': no file {wanted}.yaml in {_folders_text()} "
         f"(available: {names})"
     )

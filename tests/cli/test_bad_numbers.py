@@ -165,9 +165,9 @@ def test_problem_sizes_and_coordinates_are_bounded(tmp_path, change, named) -> N
     import yaml
 
     from stalm.errors import StalmError
-    from stalm.world.problem import load_problem
+    from stalm.world.problem import load_problem, shipped_problems_dir
 
-    data = yaml.safe_load((Path(__file__).parents[2] / "problems" / "p2.yaml").read_text())
+    data = yaml.safe_load((shipped_problems_dir() / "p2.yaml").read_text())
     change(data)
     path = tmp_path / "p.yaml"
     path.write_text(yaml.safe_dump(data))

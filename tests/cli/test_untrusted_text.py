@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 import yaml
 
 from stalm.cli.display import printable, shown
+from stalm.world.problem import shipped_problems_dir
 from tests.cli_runner import run_cli
 from tests.llm.llm_doubles import ScriptedHTTPServerDouble, ScriptedReply, chat_completion
 
@@ -73,9 +73,7 @@ def test_error_messages_keep_their_bracketed_text(monkeypatch, capsys) -> None:
 
 
 def test_problems_with_markup_in_a_name_do_not_crash(monkeypatch, capsys, tmp_path) -> None:
-    data = yaml.safe_load(
-        (Path(__file__).resolve().parents[2] / "problems" / "p2.yaml").read_text()
-    )
+    data = yaml.safe_load((shipped_problems_dir() / "p2.yaml").read_text())
     data["objects"][0]["name"] = "[/]"
     data["goal"] = [[o["name"], "on", o["on"]] for o in data["objects"]][:1]
     path = tmp_path / "odd.yaml"

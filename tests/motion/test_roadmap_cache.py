@@ -91,7 +91,7 @@ def test_the_command_line_warns_in_one_line(tmp_path: Path) -> None:
     env = {**os.environ, "PYTHONPATH": str(root), "STALM_CACHE_DIR": str(not_a_folder)}
     stalm = [sys.executable, "-c", "from stalm.cli.main import main; main()"]
     done = subprocess.run(
-        [*stalm, "problems", "--file", str(root / "problems" / "p2.yaml")],
+        [*stalm, "problems", "--file", str(root / "stalm" / "problems" / "p2.yaml")],
         capture_output=True,
         text=True,
         env=env,

@@ -15,10 +15,10 @@ import yaml
 
 from stalm.motion.problem_check import problem_geometry_faults
 from stalm.motion.roadmap import RoadmapSettings, passage_points
-from stalm.world.problem import Problem, load_problem
+from stalm.world.problem import Problem, load_problem, shipped_problems_dir
 
 DOORWAY = 1.6
-P2_FILE = Path(__file__).parents[2] / "problems" / "p2.yaml"
+P2_FILE = shipped_problems_dir() / "p2.yaml"
 
 
 def doorway_at(low: float, folder: Path, width: float = DOORWAY) -> Problem:

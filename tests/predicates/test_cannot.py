@@ -9,8 +9,6 @@ out, and ``stalm problems --file`` warns that bottle1 can never be moved.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import yaml
@@ -24,11 +22,11 @@ from stalm.motion.base_motion import BasePlanner
 from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.literals import GroundLiteral as L
 from stalm.predicates.stuck import stuck_objects
-from stalm.world.problem import Problem, load_problem
+from stalm.world.problem import Problem, load_problem, shipped_problems_dir
 from stalm.world.scene import Sim
 from tests.cli_runner import run_cli
 
-P2_FILE = Path(__file__).parents[2] / "problems" / "p2.yaml"
+P2_FILE = shipped_problems_dir() / "p2.yaml"
 
 
 @pytest.fixture(scope="module")
