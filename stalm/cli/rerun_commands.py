@@ -1,11 +1,12 @@
 """``stalm rerun``: run a trial again from its result record.
 
 A record (``stalm solve --json``, or one line of an experiment's results file) keeps the
-problem's name and hash, the planner, the seed and the whole resolved settings tree. This
-command builds the same planner from them, solves the same problem with the same seed and
-says whether the plan is the record's: with the same cached replies and a run the clock did
-not cut short, it is, action for action; on the machine that made the record number for
-number, on another one with its continuous values within
+problem's name and hash (a solve's record also the problem itself, so that it reruns without
+the file: :mod:`stalm.world.problem_record`), the planner, the seed and the whole resolved
+settings tree. This command builds the same planner from them, solves the same problem with
+the same seed and says whether the plan is the record's: with the same cached replies and a
+run the clock did not cut short, it is, action for action; on the machine that made the record
+number for number, on another one with its continuous values within
 :data:`~stalm.geometry.tolerance.CONTINUOUS_TOLERANCE` (CPUs round the last bits of IK and
 trigonometry differently), which still counts as the record's plan.
 
@@ -28,7 +29,7 @@ from stalm.cli.solve_output import console, note_embedded, out, solve_and_report
 from stalm.errors import StalmError
 from stalm.files import MAX_RESULT_FILE_BYTES, load_json, read_text
 from stalm.geometry.tolerance import CONTINUOUS_TOLERANCE, close_enough
-from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
+from stalm.world.problem_record import RECORD_PROBLEM_HELP, record_problem
 
 commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
@@ -80,10 +81,7 @@ def rerun_command(
         str | None,
         typer.Option(help="The trial's key (or its start) in a JSON-lines results file."),
     ] = None,
-    problem: Annotated[
-        str | None,
-        typer.Option(help="Problem (default: the one named in the record; the hash must match)."),
-    ] = None,
+    problem: Annotated[str | None, typer.Option(help=RECORD_PROBLEM_HELP)] = None,
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Write the new result as JSON.")
     ] = None,
@@ -132,14 +130,7 @@ def rerun_command(
     seed = record.get("seed")
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise StalmError(f"{record_file}: seed must be a non-negative integer, got {seed!r}")
-    loaded = load_problem(problem or str(record.get("problem", "")))
-    recorded_hash = record.get(PROBLEM_HASH_FIELD)
-    if recorded_hash is not None and recorded_hash != loaded.content_hash:
-        raise StalmError(
-            f"{record_file}: the record's problem ({recorded_hash}) is not {loaded.name} as "
-            f"{shown(loaded.source)} has it ({loaded.content_hash}); pass the problem file it "
-            "ran on with --problem"
-        )
+    loaded = record_problem(record, str(record_file), problem, record_file.parent)
     resolved = resolve(entry.name, settings, loaded)
     console.print(
         f"re-running {shown(loaded.name)} with {entry.name}, seed {seed}, from "

@@ -22,6 +22,7 @@ from stalm.cli.solve_output import (
 from stalm.errors import StalmError
 from stalm.files import read_json_file
 from stalm.world.problem import load_problem
+from stalm.world.problem_record import RECORD_PROBLEM_HELP, record_problem
 
 commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
@@ -210,25 +211,12 @@ def solve_command(
         raise typer.Exit(1)
 
 
-def _recorded_problem(result_file: Path, data: dict[str, object]) -> str:
-    """The problem a result names: a problem file named by its file name alone (a generated
-    problem's witness names its problem so) is looked for in the result's own folder first,
-    so a suite copied elsewhere still replays; anything else is a name or path as given."""
-    named = str(data.get("problem", ""))
-    beside = result_file.parent / named
-    if Path(named).name == named and Path(named).suffix in (".yaml", ".yml") and beside.is_file():
-        return str(beside)
-    return named
-
-
 @commands.command("replay")
 def replay_command(
     result_file: Annotated[
         Path, typer.Argument(help="A JSON result written by stalm solve --json.")
     ],
-    problem: Annotated[
-        str | None, typer.Option(help="Problem (default: the one named in the file).")
-    ] = None,
+    problem: Annotated[str | None, typer.Option(help=RECORD_PROBLEM_HELP)] = None,
     gif: Annotated[
         Path | None, typer.Option("--gif", help="Write an animation of the plan.")
     ] = None,
@@ -241,7 +229,7 @@ def replay_command(
     data = read_json_file(result_file, "result file", finite=True)  # bounded, finite
     if not isinstance(data, dict):
         raise StalmError(f"{result_file}: not a stalm result (not a JSON object)")
-    loaded = load_problem(problem or _recorded_problem(result_file, data))
+    loaded = record_problem(data, str(result_file), problem, result_file.parent)
     report = replay_result_json(loaded, data)
     for warning in report.warnings:
         console.print(f"[yellow]warning:[/] {shown(warning)}", highlight=False, soft_wrap=True)

@@ -2,8 +2,8 @@
 
 :func:`solve_and_report` builds the planner from a resolved settings tree, solves with the
 tree's budget, prints the plan, its phase times and counters, and writes the result record
-(``--json``), which carries the problem's hash and the whole settings tree, so that
-``stalm rerun`` can run the trial again from the file alone.
+(``--json``), which carries the problem (its spec and hash) and the whole settings tree, so
+that ``stalm rerun`` can run the trial again from the file alone.
 """
 
 from __future__ import annotations
@@ -18,7 +18,8 @@ from rich.table import Table
 from stalm.cli.display import shown
 from stalm.cli.paths import write_or_fall_back
 from stalm.errors import StalmError
-from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
+from stalm.world.problem import Problem
+from stalm.world.problem_record import problem_fields
 
 if TYPE_CHECKING:
     from stalm.settings.tree import RunSettings
@@ -84,14 +85,11 @@ def write_result_json(data: dict[str, Any], path: Path) -> Path:
 
 
 def result_record(result: PlanResult, problem: Problem, settings: RunSettings) -> dict[str, Any]:
-    """What ``--json`` writes: the result, the problem's hash and the whole settings tree."""
+    """What ``--json`` writes: the result, the problem (its name, hash and spec: the record
+    reopens without the file) and the whole settings tree."""
     from stalm.settings.io import to_dict
 
-    return {
-        **result.to_json(),
-        PROBLEM_HASH_FIELD: problem.content_hash,
-        "settings": to_dict(settings),
-    }
+    return {**result.to_json(), **problem_fields(problem), "settings": to_dict(settings)}
 
 
 def note_embedded(planner: str, settings: RunSettings) -> None:
@@ -150,8 +148,7 @@ def solve_and_report(
             # result file still says what happened, as an experiment's error record does
             if json_out is not None:
                 failed = {
-                    "problem": problem.name,
-                    PROBLEM_HASH_FIELD: problem.content_hash,
+                    **problem_fields(problem),
                     "planner": planner_name,
                     "seed": seed,
                     "success": False,

@@ -11,7 +11,8 @@ from rich.console import Console
 
 from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
-from stalm.world.problem import Problem, load_problem
+from stalm.world.problem import Problem
+from stalm.world.problem_record import RECORD_PROBLEM_HELP, record_problem
 
 console = Console(stderr=True)
 out = Console()
@@ -39,9 +40,7 @@ def view_command(
         Path | None,
         typer.Option("--output", "-o", help="The page to write (default: RESULT with .html)."),
     ] = None,
-    problem: Annotated[
-        str | None, typer.Option(help="Problem (default: the one named in the file).")
-    ] = None,
+    problem: Annotated[str | None, typer.Option(help=RECORD_PROBLEM_HELP)] = None,
 ) -> None:
     """Write a self-contained HTML page of a result, the scene animated through the plan.
 
@@ -52,5 +51,5 @@ def view_command(
     page = output if output is not None else result_file.with_suffix(".html")
     check_output_file(page, "--output")
     data = load_result(result_file)
-    loaded = load_problem(problem or str(data.get("problem", "")))
+    loaded = record_problem(data, str(result_file), problem, result_file.parent)
     write_view_page(loaded, data, page, source=result_file.name)

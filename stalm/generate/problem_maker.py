@@ -25,8 +25,9 @@ from stalm.generate.layout import scene
 from stalm.generate.witness import NoWitness, Witness, ground_witness
 from stalm.motion.problem_check import problem_geometry_faults
 from stalm.trial.result import Counters, PhaseTimes, PlanResult
-from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
+from stalm.world.problem import Problem
 from stalm.world.problem_file import parse_problem
+from stalm.world.problem_record import problem_fields
 
 DECIMALS = 4
 """Places every coordinate of a generated file is rounded to: 0.1 mm."""
@@ -50,10 +51,11 @@ class Generated:
     witness: Witness
     candidate: int
 
-    def witness_json(self, problem_file: str) -> dict[str, Any]:
-        """The witness as a result file (``stalm replay`` reads it) naming ``problem_file``."""
+    def witness_json(self) -> dict[str, Any]:
+        """The witness as a result file (``stalm replay`` reads it) carrying its problem, named
+        as a solve's result names it (the problem's ``name``)."""
         result = PlanResult(
-            problem=problem_file,
+            problem=self.problem.name,
             planner="witness",
             seed=0,
             success=True,
@@ -69,7 +71,7 @@ class Generated:
                 }
             },
         )
-        return {**result.to_json(), PROBLEM_HASH_FIELD: self.problem.content_hash}
+        return {**result.to_json(), **problem_fields(self.problem)}
 
 
 def problem_name(text: str) -> str:

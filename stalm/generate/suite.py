@@ -57,11 +57,11 @@ class Suite:
 
 def write_generated(generated: Generated, path: Path) -> Path:
     """Write a problem file and its witness (``NAME.witness.json``) beside it; the witness
-    names the problem by its file name, relative to its own folder."""
+    carries its problem, so it replays without the file."""
     path.parent.mkdir(parents=True, exist_ok=True)
     witness = witness_path(path)
     _write_atomically(path, generated.text)
-    _write_atomically(witness, json.dumps(generated.witness_json(path.name), indent=1) + "\n")
+    _write_atomically(witness, json.dumps(generated.witness_json(), indent=1) + "\n")
     return witness
 
 

@@ -173,7 +173,7 @@ def test_rerun_refuses_a_record_of_another_problem(monkeypatch, capsys, tmp_path
     path = tmp_path / "r.json"
     path.write_text(json.dumps(record))
     assert run_cli(monkeypatch, "rerun", str(path)) == 2
-    assert "pass the problem file it ran on with --problem" in one_error_line(
+    assert "pass the problem file it was solved on with --problem" in one_error_line(
         capsys.readouterr().err
     )
     lines = tmp_path / "r.jsonl"

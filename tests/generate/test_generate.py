@@ -56,10 +56,13 @@ def test_every_problem_of_a_suite_loads_checks_and_replays_its_witness(
         assert problem.spec.optimal_length == entry.optimal_length > 0
         assert problem_geometry_faults(problem) == []
         witness = json.loads((suite / entry.witness).read_text())
-        assert witness["problem"] == entry.file  # relative to the suite's folder
+        assert witness["problem"] == problem.name  # as a solve of it names it (issue 42)
+        assert witness["problem_hash"] == problem.content_hash
         assert witness["plan_length"] == entry.optimal_length
     moved = suite.parent / "moved-elsewhere"
     shutil.copytree(suite, moved)
+    for entry in index.problems:
+        (moved / entry.file).unlink()  # the witness carries its problem
     for entry in index.problems:
         assert run_cli(monkeypatch, "replay", str(moved / entry.witness)) == 0
         assert "the goal is reached" in capsys.readouterr().out
@@ -150,6 +153,9 @@ def test_one_problem_and_its_witness_beside_it(
     assert run_cli(monkeypatch, "generate", "--objects", "7", "--seed", "2", "-o", str(out)) == 0
     assert witness_path(out).exists() and "witness" in capsys.readouterr().out
     assert load_problem(out).name == "mine"
+    # the witness names its problem as a solve's result does, and carries it (issue 42)
+    assert json.loads(witness_path(out).read_text())["problem"] == "mine"
+    out.unlink()
     assert run_cli(monkeypatch, "replay", str(witness_path(out))) == 0
 
 
