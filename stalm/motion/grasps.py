@@ -37,9 +37,9 @@ def grasp_points(obj: ObjectSpec) -> list[tuple[float, float, float]]:
     """Candidate grasp points in the object's frame (origin at its bottom centre)."""
     if obj.shape == "grill":
         assert obj.size is not None
-        _, sy, sz = obj.size
+        _, sy, _ = obj.size
         side = sy / 2 + GRILL_HANDLE_REACH * 0.6
-        return [(0.0, side, sz * 0.75), (0.0, -side, sz * 0.75)]
+        return [(0.0, side, obj.handle_z), (0.0, -side, obj.handle_z)]
     assert obj.radius is not None and obj.height is not None
     if obj.shape == "disc":
         # a plate is taken at its rim from above: the grasp point sits just over the rim

@@ -20,7 +20,7 @@ from stalm.motion import panda
 from stalm.motion.panda_spheres import panda_spheres
 from stalm.world import robot as robot_model
 from stalm.world.scene import Sim
-from stalm.world.spec import GRILL_HANDLE_REACH, ObjectSpec
+from stalm.world.spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
 from stalm.world.state import Grasp
 
 
@@ -46,12 +46,12 @@ def object_boxes(obj: ObjectSpec) -> list[tuple[tuple[float, float, float], tupl
     if obj.shape == "grill":
         assert obj.size is not None
         sx, sy, sz = obj.size
-        handle = (0.02, GRILL_HANDLE_REACH / 2, 0.02)
+        handle = (GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH / 2, GRILL_HANDLE_HALF_HEIGHT)
         side = sy / 2 + GRILL_HANDLE_REACH / 2
         return [
             ((0.0, 0.0, sz / 2), (sx / 2, sy / 2, sz / 2)),
-            ((0.0, side, sz * 0.75), handle),
-            ((0.0, -side, sz * 0.75), handle),
+            ((0.0, side, obj.handle_z), handle),
+            ((0.0, -side, obj.handle_z), handle),
         ]
     assert obj.radius is not None and obj.height is not None
     return [((0.0, 0.0, obj.height / 2), (obj.radius, obj.radius, obj.height / 2))]

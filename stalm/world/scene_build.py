@@ -18,7 +18,14 @@ import pybullet_data
 
 from stalm.geometry.transforms import yaw_quat
 from stalm.world import robot as robot_model
-from stalm.world.spec import GRILL_HANDLE_REACH, DoorSpec, ObjectSpec, ProblemSpec, RegionSpec
+from stalm.world.spec import (
+    GRILL_HANDLE_HALF_HEIGHT,
+    GRILL_HANDLE_REACH,
+    DoorSpec,
+    ObjectSpec,
+    ProblemSpec,
+    RegionSpec,
+)
 
 FINGER_JOINTS = (9, 10)
 
@@ -151,8 +158,8 @@ def _object_body(client: int, obj: ObjectSpec) -> int:
         assert obj.size is not None
         sx, sy, sz = obj.size
         body_half = [sx / 2, sy / 2, sz / 2]
-        handle_half = [0.02, GRILL_HANDLE_REACH / 2, 0.02]
-        handle_z = sz * 0.75
+        handle_half = [GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH / 2, GRILL_HANDLE_HALF_HEIGHT]
+        handle_z = obj.handle_z
         offsets = [
             [0.0, 0.0, sz / 2],
             [0.0, sy / 2 + GRILL_HANDLE_REACH / 2, handle_z],

@@ -15,9 +15,16 @@ standing pose side along the region's +x, v to the left), so layouts read like t
 from __future__ import annotations
 
 import math
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    model_serializer,
+    model_validator,
+)
 
 from stalm.errors import StalmError
 from stalm.geometry.directions import DIRECTIONS
@@ -115,8 +122,8 @@ class ObjectSpec(_Spec):
     """A movable object: a primitive shape resting on a region at the start.
 
     ``cylinder``: cans, salters, bottles (radius, height). ``disc``: a plate (radius, height
-    is its thickness). ``grill``: a box body (``size``) with two side handles along its y
-    axis, grasped at a handle.
+    is its thickness). ``grill``: a box body (``size``, its lid included) with two side
+    handles along its y axis at ``handle_height`` above its bottom, grasped at a handle.
     """
 
     name: Name
@@ -124,6 +131,10 @@ class ObjectSpec(_Spec):
     radius: Positive | None = None
     height: Positive | None = None
     size: tuple[Positive, Positive, Positive] | None = None
+    handle_height: Positive | None = Field(
+        default=None,
+        description="a grill's handles' height above its bottom (m); 3/4 of its height if unset",
+    )
     on: str
     at: Vec2 = Field(description="start position (u, v) in the region's frame")
     yaw: Coordinate = Field(default=0.0, description="start yaw relative to the region's frame")
@@ -141,7 +152,35 @@ class ObjectSpec(_Spec):
                 raise ValueError("a grill needs 'size' (x, y, z) of its body")
             if self.radius is not None:
                 raise ValueError("a grill takes 'size', not 'radius'")
+            reach = self.size[2] - GRILL_HANDLE_HALF_HEIGHT
+            if self.handle_height is not None and not (
+                GRILL_HANDLE_HALF_HEIGHT <= self.handle_height <= reach
+            ):
+                raise ValueError(
+                    f"a grill's handle_height must lie between {GRILL_HANDLE_HALF_HEIGHT:g} and "
+                    f"its height less {GRILL_HANDLE_HALF_HEIGHT:g} ({reach:g} m)"
+                )
+        if self.shape != "grill" and self.handle_height is not None:
+            raise ValueError(f"a {self.shape} has no handles: 'handle_height' is for a grill")
         return self
+
+    @model_serializer(mode="wrap")
+    def _without_unset_handles(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """An object without ``handle_height`` dumps as it did before the field existed, so
+        every problem's :attr:`~stalm.world.problem.Problem.content_hash` (which results
+        record) stays what it was."""
+        data: dict[str, Any] = handler(self)
+        if self.handle_height is None:
+            data.pop("handle_height", None)
+        return data
+
+    @property
+    def handle_z(self) -> float:
+        """A grill's handles' (and grasp points') height above its bottom."""
+        assert self.size is not None
+        if self.handle_height is not None:
+            return self.handle_height
+        return self.size[2] * 0.75
 
     @property
     def half_extents(self) -> tuple[float, float, float]:
@@ -156,6 +195,8 @@ class ObjectSpec(_Spec):
 
 GRILL_HANDLE_REACH = 0.06
 """How far a grill's side handles stick out of its body (m)."""
+GRILL_HANDLE_HALF_HEIGHT = 0.02
+"""Half a grill handle's height and depth (m): a bar 4 cm square."""
 
 
 class RobotSpec(_Spec):
