@@ -10,6 +10,9 @@ in the pocket leave the front free for the grill.
 
 from __future__ import annotations
 
+import itertools
+import json
+
 import numpy as np
 import pytest
 
@@ -17,8 +20,13 @@ from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.mdp import Domain
 from stalm.domain.outcome import Infeasibility
 from stalm.geometry.transforms import se2_to_world
+from stalm.trial.replay import replay_result_json
+from stalm.world.problem import Problem, load_problem
 from stalm.world.relations import at_position
+from stalm.world.spec import ProblemSpec
 from stalm.world.state import ObjectPose, State
+from tests.cli_runner import run_cli
+from tests.domain.trap_sweep import Grid, sweep_can_placements
 
 SEEDS = range(8)
 TRAPS = {
@@ -97,3 +105,81 @@ def test_with_the_others_in_the_walled_pocket_the_grill_goes_in_front(domain_fac
         assert outcome.feasible, f"seed {seed}: {outcome.failure}"
         spec = domain.problem.spec
         assert all(at_position(spec, outcome.state, o, "on", counter) for o in others)
+
+
+# ---------------------------------------------------------------- as every PLACE could draw
+
+
+def _as_before_issue_41(problem: Problem) -> Problem:
+    """The problem with the grill and walled counter it had before issue 41: an 0.18 m grill
+    (handles at 3/4 of it) on a counter 0.6 m usable wide, where the arm reached over it."""
+    data = problem.spec.model_dump(mode="json")
+    counter = TRAPS[problem.name][0]
+    for obj in data["objects"]:
+        if obj["name"] == "beef_grill":
+            obj["size"][2] = 0.18
+            obj.pop("handle_height")
+    for region in data["regions"]:
+        if region["name"] == counter:
+            region["usable"][1] = 0.6
+    return Problem(ProblemSpec.model_validate(data), problem.source)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["batched", "pybullet"])
+@pytest.mark.parametrize("name", sorted(TRAPS))
+def test_no_can_placement_anywhere_with_the_grill_anywhere_at_the_front(name, engine) -> None:
+    counter, can, _ = TRAPS[name]
+    result = sweep_can_placements(load_problem(name), counter, can, engine)
+    assert result.grill_poses >= 3, "the grill has room at the front"
+    assert result.checked_motions > 500, "placements behind the grill reach the motion check"
+    assert result.feasible == ()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(TRAPS))
+def test_the_sweep_finds_the_arm_reaching_over_the_old_grill(name) -> None:
+    counter, can, _ = TRAPS[name]
+    old = _as_before_issue_41(load_problem(name))
+    result = sweep_can_placements(old, counter, can, "batched", Grid(grill_u=2, grill_v=2))
+    behind = [f for f in result.feasible if f.can[0] > f.grill[0] + 0.15]
+    assert behind, "a can placed in the pocket behind the grill, the arm reaching over it"
+
+
+# ---------------------------------------------------------------- as a user's solve meets it
+
+
+def trap_violations(problem: Problem, states: tuple[State, ...]) -> list[str]:
+    """Each step of an executed plan that puts something on the walled counter while the
+    grill stands on it."""
+    counter = TRAPS[problem.name][0]
+    spec = problem.spec
+    found = []
+    for step, (before, after) in enumerate(itertools.pairwise(states), start=1):
+        if before.held is None or before.held.obj == "beef_grill" or after.held is not None:
+            continue
+        placed = before.held.obj
+        if at_position(spec, after, placed, "on", counter) and at_position(
+            spec, after, "beef_grill", "on", counter
+        ):
+            found.append(f"step {step}: {placed} placed on {counter} with the grill on it")
+    return found
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("name", sorted(TRAPS))
+def test_a_solve_puts_nothing_on_the_walled_counter_after_the_grill(
+    name, seed, tmp_path, monkeypatch
+) -> None:
+    out = tmp_path / "result.json"
+    code = run_cli(monkeypatch, "solve", name, "--seed", str(seed), "--json", str(out))
+    assert code == 0
+    record = json.loads(out.read_text())
+    assert record["success"], record["termination"]
+    problem = load_problem(name)
+    report = replay_result_json(problem, record)
+    assert report.reached_goal, report.reason
+    assert trap_violations(problem, report.states) == []
+    last = [str(a.discrete) for a in report.actions][-1]
+    assert last == f"place(beef_grill, on, {TRAPS[name][0]})", "the grill goes last"
