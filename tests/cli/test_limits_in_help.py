@@ -57,3 +57,11 @@ def test_objects_beyond_the_limit_are_refused_as_the_help_says(monkeypatch, caps
         f"--objects must be at most {MAX_OBJECTS}, got {MAX_OBJECTS + 8}" in capsys.readouterr().err
     )
     assert not out.exists()
+
+
+def test_solve_help_says_what_runs_when_no_model_is_named(monkeypatch, capsys) -> None:
+    """`--llm`'s help said 'embedded' was the default, where STaLM with no model named runs
+    on the symbolic proposer (as docs/llm.md now says too; issue 42, finding 6)."""
+    text = _help(monkeypatch, capsys, "solve")
+    assert "'embedded' (default)" not in text
+    assert "None named: STaLM runs on the symbolic proposer" in text

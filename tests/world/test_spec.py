@@ -11,8 +11,6 @@ from stalm.world.problem_file import load_problem_file, parse_problem
 
 PAPER_PLACEMENT_COUNTS = {"P1": 31, "P2": 23, "P3": 50, "P4": 27, "P6": 27}
 
-ROOT = Path(__file__).resolve().parents[2]
-
 
 def test_every_problem_loads_with_the_papers_placement_count(problems: dict[str, Problem]) -> None:
     for name, count in PAPER_PLACEMENT_COUNTS.items():
@@ -226,7 +224,7 @@ def test_a_bare_on_gets_a_one_line_hint(tmp_path: Path, monkeypatch, capsys) -> 
     pydantic alone gave two lines an object ("Keys should be strings"; issue 42, finding 5)."""
     from tests.cli_runner import run_cli
 
-    text = (ROOT / "problems" / "p2.yaml").read_text()
+    text = Path(load_problem("P2").source).read_text()
     assert "'on': table2" in text and "'on': counter2" in text
     path = tmp_path / "bare_on.yaml"
     path.write_text(text.replace("'on': table2", "on: table2").replace("'on': counter2", "on: x"))
@@ -238,7 +236,7 @@ def test_a_bare_on_gets_a_one_line_hint(tmp_path: Path, monkeypatch, capsys) -> 
 
 
 def test_a_bare_on_in_a_goal_gets_the_hint() -> None:
-    data = yaml.safe_load((ROOT / "problems" / "p2.yaml").read_text())
+    data = yaml.safe_load(Path(load_problem("P2").source).read_text())
     data["goal"][0] = yaml.safe_load("[salter, on, table2]")
     with pytest.raises(StalmError, match=r"^mine.yaml: goal\[0\]\[1\]: true is how YAML reads"):
         parse_problem(data, "mine.yaml")
