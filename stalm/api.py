@@ -13,12 +13,20 @@ A planner takes a run's settings tree (:class:`RunSettings`, whose defaults are 
 A proposer is any object with a ``name`` and a ``propose`` method of the
 :class:`TaskPlanProposer` form; add a ``feedback`` keyword (:class:`FeedbackProposer`) and
 STaLM also tells it which steps failed.
+
+A problem can be built in Python as well as read from a file: a :class:`ProblemSpec` of
+:class:`WallSpec`, :class:`RegionSpec`, :class:`DoorSpec`, :class:`ObjectSpec`,
+:class:`RobotSpec` and :class:`GoalSpec` is checked field by field as a problem file is
+(:func:`parse_problem` validates a mapping, as loaded from YAML, naming its source in every
+error); ``Problem(spec, source)`` is what a planner solves, and
+:func:`check_problem_geometry` checks its scene in the simulator as ``stalm solve`` does.
 """
 
 from __future__ import annotations
 
 from stalm.domain.actions import DiscreteAction, Open, Pick, Place
 from stalm.errors import StalmError
+from stalm.motion.problem_check import check_problem_geometry
 from stalm.planners.registry import build_planner, planners
 from stalm.planners.stalm import StalmPlanner
 from stalm.proposers.fast_downward import SymbolicProposer
@@ -31,30 +39,49 @@ from stalm.settings.tree import RunSettings
 from stalm.trial.replay import ReplayReport, replay_plan
 from stalm.trial.result import PlanResult
 from stalm.world.problem import Problem, load_problem
+from stalm.world.problem_file import parse_problem
+from stalm.world.spec import (
+    DoorSpec,
+    GoalSpec,
+    ObjectSpec,
+    ProblemSpec,
+    RegionSpec,
+    RobotSpec,
+    WallSpec,
+)
 from stalm.world.state import State
 
 __all__ = [
     "DiscreteAction",
+    "DoorSpec",
     "FailedStep",
     "FeedbackProposer",
+    "GoalSpec",
     "LLMProposer",
     "NoisyProposer",
+    "ObjectSpec",
     "Open",
     "Pick",
     "Place",
     "PlanResult",
     "PlannerConfig",
     "Problem",
+    "ProblemSpec",
     "Proposal",
+    "RegionSpec",
     "ReplayReport",
+    "RobotSpec",
     "RunSettings",
     "StalmError",
     "StalmPlanner",
     "State",
     "SymbolicProposer",
     "TaskPlanProposer",
+    "WallSpec",
     "build_planner",
+    "check_problem_geometry",
     "load_problem",
+    "parse_problem",
     "planners",
     "replay_plan",
     "with_overrides",

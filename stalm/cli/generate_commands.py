@@ -38,7 +38,13 @@ def generate_command(
             "--suite the folder.",
         ),
     ],
-    objects: Annotated[int, typer.Option(help="Movable objects (one problem).")] = 12,
+    objects: Annotated[
+        int,
+        typer.Option(
+            help="Movable objects (one problem): at most 120, and at least one per goal and "
+            "occluder (with --trap one more; with 2 or more goals one reference object)."
+        ),
+    ] = 12,
     goals: Annotated[int, typer.Option(help="Goal objects (1-4).")] = 2,
     seed: Annotated[int, typer.Option(help="Seed: the same seed, the same file.")] = 0,
     occlusion_depth: Annotated[
@@ -56,9 +62,11 @@ def generate_command(
         str | None, typer.Option(help="Make a suite of this name in the folder --out.")
     ] = None,
     sizes: Annotated[
-        str, typer.Option(help="With --suite: object counts, comma-separated.")
+        str, typer.Option(help="With --suite: object counts, comma-separated, each 1-120.")
     ] = "8,16,32,64",
-    per_size: Annotated[int, typer.Option(help="With --suite: problems per size.")] = 20,
+    per_size: Annotated[
+        int, typer.Option(help="With --suite: problems per size (at least 1).")
+    ] = 20,
 ) -> None:
     """Write a solvable problem (or a suite): a scene, objects behind chains of occluders, a
     goal, and a witness plan grounded and replayed in the simulator."""

@@ -66,8 +66,10 @@ def solve_command(
     llm: Annotated[
         str | None,
         typer.Option(
-            help="Language model (llm.backend): 'embedded' (default), 'openai:MODEL', "
-            "'ollama:MODEL', 'vllm:MODEL', 'llamacpp', or a base URL 'http://host:port/v1#MODEL'."
+            help="Language model (llm.backend): 'embedded', 'openai:MODEL', 'ollama:MODEL', "
+            "'vllm:MODEL', 'llamacpp', or a base URL 'http://host:port/v1#MODEL'. None named: "
+            "STaLM runs on the symbolic proposer, and a planner that asks a model asks "
+            "$STALM_LLM, else a server in $STALM_LLM_BASE_URL, else 'embedded'."
         ),
     ] = None,
     seed: Annotated[int, typer.Option(help="Seed of every random choice.")] = 0,

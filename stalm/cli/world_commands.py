@@ -71,7 +71,12 @@ def problems_command(
         ),
     ] = None,
 ) -> None:
-    """List the problems: regions, objects, placement count n(R) + 4 n(O), and goals."""
+    """List the problems: regions, objects, placement count n(R) + 4 n(O), and goals.
+
+    A problem file (YAML) is at most 1 MB; its coordinates, sizes and angles lie within
+    +-1000 (m, rad), its floor is at most 100 m on a side, its colours' channels in [0, 1],
+    and its names are identifiers of up to 64 letters, digits and '_' (quote a key or
+    direction `on`: YAML reads it bare as true)."""
     problems = (
         [load_problem(path) for path in file]
         if file
@@ -118,7 +123,7 @@ def render_command(
     state_file: Annotated[
         Path | None, typer.Option("--state", help="Render this State (JSON, as in result files).")
     ] = None,
-    size: Annotated[int, typer.Option(help="Pixel size of each view.")] = 640,
+    size: Annotated[int, typer.Option(help="Pixel size of each view (16-4096).")] = 640,
 ) -> None:
     """Write a top-down and a perspective image of the initial state (or a given State)."""
     from stalm.viz.render import check_size, save_render

@@ -43,6 +43,10 @@ DUMP = "?"
 """Stands for an occluder's region in a chain's steps until the regions are known."""
 MAX_DEPTH = 3
 """Deepest chain: a counter holds four rows."""
+MAX_GOALS = 4
+"""Most goal objects of a generated problem."""
+MAX_OBJECTS = 120
+"""Most movable objects of a generated problem (``--objects``, each of ``--sizes``)."""
 UNUSED_FOR_GOALS = frozenset({"shelf_lower"})
 """Regions no chain starts on and no goal goes to (the shelf is at 1.6 m): clutter only."""
 PALETTE = (
@@ -68,8 +72,8 @@ class Knobs:
     trap: bool = False
 
     def __post_init__(self) -> None:
-        if not 1 <= self.goals <= 4:
-            raise StalmError(f"--goals must be 1 to 4, got {self.goals}")
+        if not 1 <= self.goals <= MAX_GOALS:
+            raise StalmError(f"--goals must be 1 to {MAX_GOALS}, got {self.goals}")
         if not 0 <= self.occlusion_depth <= MAX_DEPTH:
             raise StalmError(
                 f"--occlusion-depth must be 0 to {MAX_DEPTH} (a counter holds {MAX_DEPTH + 1} "
@@ -85,8 +89,8 @@ class Knobs:
                 f"--objects {self.objects} is too few for {self.goals} goals "
                 f"{self.occlusion_depth} deep: at least {self.least_objects}"
             )
-        if self.objects > 120:
-            raise StalmError(f"--objects must be at most 120, got {self.objects}")
+        if self.objects > MAX_OBJECTS:
+            raise StalmError(f"--objects must be at most {MAX_OBJECTS}, got {self.objects}")
 
     @property
     def relative(self) -> bool:

@@ -2,11 +2,11 @@
 
 Loading a problem (:mod:`stalm.world.problem_file`, with the field checks of
 :mod:`stalm.world.spec`) checks every field cheaply and stays fast. Whether
-the scene it describes is possible needs the simulator: an object or the robot starting inside
-a wall or another body, a standing pose the robot cannot stand at, or one the base can never
-drive to. A planner meeting such a problem fails late and obscurely (no path, no IK, a
-"collision" at step 0), so ``stalm solve`` and ``stalm problems --file`` run
-:func:`check_problem_geometry` first and name what is at fault.
+the scene it describes is possible needs the simulator: a region standing inside a wall, an
+object or the robot starting inside a wall or another body, a standing pose the robot cannot
+stand at, or one the base can never drive to. A planner meeting such a problem fails late and
+obscurely (no path, no IK, a "collision" at step 0), so ``stalm solve`` and
+``stalm problems --file`` run :func:`check_problem_geometry` first and name what is at fault.
 
 Reachability is judged on the base roadmap the planners use (with every door open, so the
 other room counts as reachable), from the robot's start to every region's and door's standing
@@ -69,6 +69,14 @@ def problem_geometry_faults(problem: Problem, settings: RoadmapSettings | None =
     faults: list[str] = []
     with Sim(spec) as sim:
         sim.set_state(problem.initial_state)
+        walls = set(sim.bodies.walls.values())
+        for index, region in enumerate(spec.regions):
+            body = sim.bodies.regions[region.name]
+            hits = {wall for wall in walls if sim.touches([body], wall)}
+            if hits:
+                faults.append(
+                    f"regions[{index}] ('{region.name}'): stands inside {_names(sim, hits)}"
+                )
         for index, obj in enumerate(spec.objects):
             hits = sim.contacts_of([sim.bodies.objects[obj.name]])
             if hits:

@@ -53,6 +53,43 @@ def _format_location(loc: tuple[object, ...]) -> str:
     return text
 
 
+def _first_boolean(data: object, loc: tuple[object, ...] = ()) -> str | None:
+    """Where the first boolean of problem data is and what to write instead, or None.
+
+    No field of a problem file is a boolean, but YAML 1.1 reads a bare ``on``, ``off``,
+    ``yes`` and ``no`` as one: ``on: table3`` is the key ``true``, ``[salter, on, table2]``
+    holds ``true``. Pydantic would report the mapping key as "Keys should be strings" beside
+    a missing ``on`` for every object; this says it once, in one line, with the fix."""
+    found: list[str] = []
+
+    def visit(value: object, at: tuple[object, ...]) -> None:
+        if isinstance(value, dict):
+            for key, item in value.items():
+                if isinstance(key, bool):
+                    named = key and isinstance(item, str)
+                    quoted = f"'on': {item:.{_FIELD_CHARS}}" if named else "'on'"
+                    found.append(
+                        f"{_format_location(at) or 'the file'}: a key reads as {str(key).lower()}"
+                        f": YAML reads a bare on, off, yes or no as a boolean; quote it "
+                        f"({quoted})"
+                    )
+                visit(item, (*at, key))
+        elif isinstance(value, list):
+            for index, item in enumerate(value):
+                visit(item, (*at, index))
+        elif isinstance(value, bool):
+            found.append(
+                f"{_format_location(at)}: {str(value).lower()} is how YAML reads a bare on, off, "
+                "yes or no; quote it ('on')"
+            )
+
+    visit(data, loc)
+    if not found:
+        return None
+    more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
+    return found[0] + more
+
+
 def parse_problem(data: object, source: str = "<problem>") -> ProblemSpec:
     """Validate already-loaded problem data; errors name ``source`` and the field."""
     if not isinstance(data, dict):
@@ -63,6 +100,9 @@ def parse_problem(data: object, source: str = "<problem>") -> ProblemSpec:
         raise StalmError(
             f"{source}: not a problem file (it has none of the fields {', '.join(REQUIRED_FIELDS)})"
         )
+    boolean = _first_boolean(data)
+    if boolean is not None:
+        raise StalmError(f"{source}: {boolean}")
     try:
         return ProblemSpec.model_validate(data)
     except ValidationError as error:

@@ -46,6 +46,28 @@ def test_an_object_starting_inside_a_post(problems, tmp_path) -> None:
     assert any("objects[0] ('salter')" in f and "'post'" in f for f in faults)
 
 
+def _table2_in_the_north_wall(d: dict) -> None:
+    # table2 (regions[6], yaw pi/2: its u axis is the world's +y) centred on wall_north's
+    # inner face, its standing pose 0.65 m in front; bottle1 (objects[1]) stays clear of the
+    # wall at u = -0.2, so no object starts inside anything (issue 42, finding 5)
+    d["regions"][6].update(center=[3.0, 5.0], base_pose=[3.0, 4.35, 1.570796])
+    d["objects"][1]["at"] = [-0.2, 0.0]
+
+
+def test_a_region_inside_a_wall(problems, tmp_path) -> None:
+    faults = problem_geometry_faults(_mutated(problems, tmp_path, _table2_in_the_north_wall))
+    assert "regions[6] ('table2'): stands inside 'wall_north'" in faults
+
+
+def test_a_region_inside_a_wall_is_an_error_of_the_cli(
+    problems, tmp_path, monkeypatch, capsys
+) -> None:
+    problem = _mutated(problems, tmp_path, _table2_in_the_north_wall)
+    assert _run_cli(monkeypatch, "problems", "--file", problem.source) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "('table2'): stands inside 'wall_north'" in err
+
+
 def test_a_standing_pose_inside_a_wall(problems, tmp_path) -> None:
     def move(d: dict) -> None:
         d["regions"][5]["base_pose"] = [-1.5, 2.0, 0.0]  # table1's pose, inside the divider

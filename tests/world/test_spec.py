@@ -217,3 +217,26 @@ def test_hostile_yaml_is_refused_quickly(tmp_path: Path, text: str, message: str
     with pytest.raises(StalmError, match=message):
         load_problem_file(path)
     assert time.perf_counter() - started < 2.0
+
+
+def test_a_bare_on_gets_a_one_line_hint(tmp_path: Path, monkeypatch, capsys) -> None:
+    """YAML reads an unquoted ``on: table2`` as the key true: one line says to quote it, where
+    pydantic alone gave two lines an object ("Keys should be strings"; issue 42, finding 5)."""
+    from tests.cli_runner import run_cli
+
+    text = Path(load_problem("P2").source).read_text()
+    assert "'on': table2" in text and "'on': counter2" in text
+    path = tmp_path / "bare_on.yaml"
+    path.write_text(text.replace("'on': table2", "on: table2").replace("'on': counter2", "on: x"))
+    assert run_cli(monkeypatch, "problems", "--file", str(path)) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1, err  # one line, as every error
+    assert "objects[0]: a key reads as true" in err
+    assert "quote it ('on': x) (and 3 more)" in err
+
+
+def test_a_bare_on_in_a_goal_gets_the_hint() -> None:
+    data = yaml.safe_load(Path(load_problem("P2").source).read_text())
+    data["goal"][0] = yaml.safe_load("[salter, on, table2]")
+    with pytest.raises(StalmError, match=r"^mine.yaml: goal\[0\]\[1\]: true is how YAML reads"):
+        parse_problem(data, "mine.yaml")

@@ -1,4 +1,5 @@
-"""The README's "How it is built" section names files that exist, and names every planner's."""
+"""The architecture page's "How it is built" section names files that exist, and names every
+planner's."""
 
 from __future__ import annotations
 
@@ -31,7 +32,7 @@ PLANNERS = (
 def named_paths() -> set[str]:
     """The backticked paths of the section (a token with a '/' or a file suffix), outside its
     fenced blocks."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
     section = text.split("\n## How it is built\n", 1)[1].split("\n## ", 1)[0]
     prose = re.sub(r"```.*?```", "", section, flags=re.DOTALL)
     tokens = re.findall(r"`([^`\s]+)`", prose)
