@@ -57,8 +57,8 @@ def print_result(result: PlanResult) -> None:
     t = result.times
     c = result.counters
     out.print(
-        f"time {t.total:.1f} s (set-up {t.setup:.1f}, predicates {t.predicates:.1f}, LLM "
-        f"{t.llm:.1f}, concretize "
+        f"time {t.total:.1f} s (set-up {t.setup:.1f}, predicates {t.predicates:.1f}, "
+        f"{proposer_label(result)} {t.proposer:.1f}, concretize "
         f"{t.concretize:.1f}, tree {t.tree_search:.1f}, execution {t.execution:.1f}); "
         f"LLM calls {c.llm_calls} ({c.prompt_tokens}+{c.completion_tokens} tokens), "
         f"T calls {c.transitions}, samples {c.samples}, simulations {c.simulations}, "
@@ -67,6 +67,17 @@ def print_result(result: PlanResult) -> None:
     )
     if result.llm_plan_failures:
         out.print(f"failed task plans by kind: {shown(result.llm_plan_failures)}", highlight=False)
+
+
+def proposer_label(result: PlanResult) -> str:
+    """What the proposer phase of a result's times was: Fast Downward's runs (the symbolic
+    proposer, and the noisy one around it) or a language model's calls."""
+    name = str(result.details.get("proposer") or "")
+    if name.startswith("symbolic") or (name.startswith("noisy") and "symbolic" in name):
+        return "proposer (Fast Downward)"
+    if name.startswith(("llm", "noisy")) or result.counters.llm_calls:
+        return "proposer (model)"
+    return "proposer"
 
 
 def write_result_json(data: dict[str, Any], path: Path) -> Path:

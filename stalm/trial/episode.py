@@ -41,7 +41,7 @@ class PhaseClock:
     """
 
     predicates: float = 0.0
-    llm: float = 0.0
+    proposer: float = 0.0
     concretize: float = 0.0
     tree: float = 0.0
     execution: float = 0.0
@@ -178,7 +178,7 @@ class Episode:
         self.llm_calls += proposal.calls
         self.prompt_tokens += proposal.prompt_tokens
         self.completion_tokens += proposal.completion_tokens
-        self.clock.llm += proposal.original_seconds
+        self.clock.proposer += proposal.original_seconds
         self.charge(proposal.original_seconds - proposal.seconds)
         self.queries.append(
             QueryRecord(
@@ -240,7 +240,7 @@ class Episode:
             states=tuple(self.states),
             times=PhaseTimes(
                 clock.predicates,
-                clock.llm,
+                clock.proposer,
                 clock.concretize,
                 clock.tree,
                 clock.execution,
