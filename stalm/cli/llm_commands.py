@@ -18,7 +18,23 @@ from rich.panel import Panel
 from stalm.cli.display import shown
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.llm.backends import SPEC_ENV, SPEC_HELP, LLMRequest, make_backend
+from stalm.llm.backends import (
+    SPEC_ENV,
+    SPEC_HELP,
+    LLMReply,
+    LLMRequest,
+    LLMResponse,
+    OpenAICompatibleBackend,
+    make_backend,
+)
+from stalm.llm.backends.constraint_styles import (
+    CONSTRAINT_STYLE_ENV,
+    CONSTRAINT_STYLES,
+    ConstraintRefused,
+    both_refused,
+    check_constraint_style,
+)
+from stalm.llm.backends.retries import DeadlinePassed
 from stalm.llm.constraints import build_constraint
 
 llm_app = typer.Typer(
@@ -71,7 +87,8 @@ def check(
         typer.Option(
             "--constrained",
             help="Ask for a tiny plan under the reply grammar/schema instead, to check that "
-            "the server accepts output constraints.",
+            "the server accepts output constraints; a server given by URL is asked in each "
+            "style (json_schema, gbnf), and told which one to set.",
         ),
     ] = False,
 ) -> None:
@@ -105,8 +122,11 @@ def check(
             seed=seed,
             deadline=time.monotonic() + timeout,
         )
-    with console.status("asking the model..."):
-        response = backend.complete(request)
+    if constrained and isinstance(backend, OpenAICompatibleBackend):
+        response = _check_constraint_styles(console, backend, request)
+    else:
+        with console.status("asking the model..."):
+            response = backend.complete(request)
     if not response.replies or response.replies[0].finish_reason == "deadline":
         raise StalmError(f"{backend.name} model {backend.model!r}: no answer within {timeout:g} s")
     reply = response.replies[0]
@@ -117,3 +137,45 @@ def check(
         f"completion tokens {reply.completion_tokens} | {rate:.1f} tokens/s | "
         f"finish: {shown(reply.finish_reason or '?')}"
     )
+
+
+def _check_constraint_styles(
+    console: Console, backend: OpenAICompatibleBackend, request: LLMRequest
+) -> LLMResponse:
+    """Send the constrained question in each style; say which the server takes and what to
+    set. The configured style's answer if it was taken, else the other's; a StalmError if the
+    server takes neither."""
+    configured = backend.constraint_style
+    order = [configured] + [s for s in CONSTRAINT_STYLES if s != configured]
+    answers: dict[str, list[LLMReply]] = {}
+    refusals: list[ConstraintRefused] = []
+    for style in order:
+        with console.status(f"asking the model with the constraint as {style}..."):
+            try:
+                answers[style] = backend.send(
+                    request,
+                    backend.model,
+                    1,
+                    request.seed,
+                    check_constraint_style(style),
+                    refusable=True,
+                )
+            except ConstraintRefused as refused:
+                refusals.append(refused)
+                console.print(f"[red]refused[/]  {shown(str(refused))}", highlight=False)
+            except DeadlinePassed:
+                raise StalmError(f"{backend.url}: no answer within the timeout") from None
+            else:
+                console.print(f"[green]accepted[/] {style}", highlight=False)
+    if not answers:
+        raise both_refused(backend.url, refusals[0], refusals[1])
+    taken = configured if configured in answers else next(iter(answers))
+    if taken == configured:
+        console.print(f"this server takes the configured style, {configured}", highlight=False)
+    else:
+        console.print(
+            f"[yellow]this server takes {taken}, not {configured}:[/] set "
+            f"{CONSTRAINT_STYLE_ENV}={taken} (a run switches by itself, with a notice)",
+            highlight=False,
+        )
+    return LLMResponse(tuple(answers[taken]), backend.name, backend.model)

@@ -18,11 +18,26 @@ from stalm.cli.solve_output import (
     out,
     solve_and_report,
     write_pictures,
+    write_plan_gif,
 )
 from stalm.errors import StalmError
 from stalm.files import read_json_file
+from stalm.viz.sizes import GIF_SIZE, MAX_SIZE, MIN_SIZE, check_size
 from stalm.world.problem import load_problem
 from stalm.world.problem_record import RECORD_PROBLEM_HELP, record_problem
+
+GIF_SIZE_HELP = (
+    f"Pixels of each of the animation's two square views (the GIF is twice as wide; "
+    f"{MIN_SIZE} to {MAX_SIZE})."
+)
+QUIET_HELP = (
+    "Show no progress line while solving (it is shown only on a terminal: never in a pipe "
+    "or a file)."
+)
+VERBOSE_HELP = (
+    "Log each real step's decisions (the task plans proposed and what Concretize made of "
+    "them, the search's rule, what was executed) on stderr, through Python's logging."
+)
 
 commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
@@ -136,6 +151,7 @@ def solve_command(
     gif: Annotated[
         Path | None, typer.Option("--gif", help="Write an animation of the plan.")
     ] = None,
+    gif_size: Annotated[int, typer.Option("--gif-size", help=GIF_SIZE_HELP)] = GIF_SIZE,
     html: Annotated[
         Path | None,
         typer.Option("--html", help="Write the page of `stalm view` (scene, plan, search)."),
@@ -159,6 +175,8 @@ def solve_command(
             "without solving.",
         ),
     ] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help=QUIET_HELP)] = False,
+    verbose: Annotated[bool, typer.Option("--verbose", "-v", help=VERBOSE_HELP)] = False,
 ) -> None:
     """Solve a problem with STaLM (or a baseline) and execute the plan in simulation."""
     from stalm.planners.registry import planner_entry, resolve
@@ -169,6 +187,7 @@ def solve_command(
         for path, option in ((json_out, "--json"), (gif, "--gif"), (html, "--html")):
             if path is not None:
                 check_output_file(path, option)
+        check_size(gif_size, "--gif-size")
     loaded = load_problem(problem)
     if no_uct:
         planner_name = "stalm-no-uct"
@@ -205,8 +224,10 @@ def solve_command(
         check_problem_geometry(loaded)  # before the clock starts: a bad file fails at once
     note_embedded(entry.name, resolved)
     note_replay(entry.name, resolved)
-    result, fallback = solve_and_report(entry.name, resolved, loaded, seed, json_out)
-    write_pictures(loaded, result, resolved, gif, html)
+    result, fallback = solve_and_report(
+        entry.name, resolved, loaded, seed, json_out, quiet=quiet, verbose=verbose
+    )
+    write_pictures(loaded, result, resolved, gif, html, gif_size=gif_size, quiet=quiet)
     if fallback is not None:
         raise StalmError(f"--json {json_out} could not be written; the result is in {fallback}")
     if not result.success:
@@ -222,12 +243,14 @@ def replay_command(
     gif: Annotated[
         Path | None, typer.Option("--gif", help="Write an animation of the plan.")
     ] = None,
+    gif_size: Annotated[int, typer.Option("--gif-size", help=GIF_SIZE_HELP)] = GIF_SIZE,
 ) -> None:
     """Re-execute a saved plan in a fresh scene and check that it reaches the goal."""
     from stalm.trial.replay import replay_result_json
 
     if gif is not None:
         check_output_file(gif, "--gif")
+        check_size(gif_size, "--gif-size")
     data = read_json_file(result_file, "result file", finite=True)  # bounded, finite
     if not isinstance(data, dict):
         raise StalmError(f"{result_file}: not a stalm result (not a JSON object)")
@@ -247,12 +270,8 @@ def replay_command(
             highlight=False,
         )
     if gif is not None:
-        from stalm.viz.animate import plan_frames, save_gif
-        from stalm.world.scene import Sim
-
-        with Sim(loaded.spec) as sim:
-            pairs = list(zip(report.actions, report.states[1:], strict=False))
-            save_gif(plan_frames(sim, report.states[0], pairs), gif)
+        pairs = list(zip(report.actions, report.states[1:], strict=False))
+        write_plan_gif(loaded, report.states[0], pairs, gif, gif_size)
     if not report.reached_goal:
         raise typer.Exit(1)
 

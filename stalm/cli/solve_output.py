@@ -22,8 +22,10 @@ from stalm.world.problem import Problem
 from stalm.world.problem_record import problem_fields
 
 if TYPE_CHECKING:
+    from stalm.domain.params import Action
     from stalm.settings.tree import RunSettings
     from stalm.trial.result import PlanResult
+    from stalm.world.state import State
 
 console = Console(stderr=True)
 out = Console()
@@ -58,8 +60,8 @@ def print_result(result: PlanResult) -> None:
     t = result.times
     c = result.counters
     out.print(
-        f"time {t.total:.1f} s (set-up {t.setup:.1f}, predicates {t.predicates:.1f}, LLM "
-        f"{t.llm:.1f}, concretize "
+        f"time {t.total:.1f} s (set-up {t.setup:.1f}, predicates {t.predicates:.1f}, "
+        f"{proposer_label(result)} {t.proposer:.1f}, concretize "
         f"{t.concretize:.1f}, tree {t.tree_search:.1f}, execution {t.execution:.1f}); "
         f"LLM calls {c.llm_calls} ({c.prompt_tokens}+{c.completion_tokens} tokens), "
         f"T calls {c.transitions}, samples {c.samples}, simulations {c.simulations}, "
@@ -68,6 +70,31 @@ def print_result(result: PlanResult) -> None:
     )
     if result.llm_plan_failures:
         out.print(f"failed task plans by kind: {shown(result.llm_plan_failures)}", highlight=False)
+
+
+def proposer_label(result: PlanResult) -> str:
+    """What the proposer phase of a result's times was: Fast Downward's runs (the symbolic
+    proposer, and the noisy one around it) or a language model's calls."""
+    name = str(result.details.get("proposer") or "")
+    if name.startswith("symbolic") or (name.startswith("noisy") and "symbolic" in name):
+        return "proposer (Fast Downward)"
+    if name.startswith(("llm", "noisy")) or result.counters.llm_calls:
+        return "proposer (model)"
+    return "proposer"
+
+
+def print_timeout_advice(result: PlanResult, problem: Problem, settings: RunSettings) -> None:
+    """After a timeout: the phase that took the most of the time and the setting to try."""
+    from stalm.trial.timeout_advice import timeout_advice
+
+    proposer = result.details.get("proposer")
+    advice = timeout_advice(
+        result.times,
+        settings,
+        len(problem.spec.objects),
+        proposer if isinstance(proposer, str) else None,
+    )
+    console.print(f"[yellow]timed out:[/] {shown(advice.text())}", highlight=False, soft_wrap=True)
 
 
 def write_result_json(data: dict[str, Any], path: Path) -> Path:
@@ -129,16 +156,27 @@ def solve_and_report(
     problem: Problem,
     seed: int,
     json_out: Path | None,
+    *,
+    quiet: bool = False,
+    verbose: bool = False,
 ) -> tuple[PlanResult, Path | None]:
     """Solve ``problem`` with the resolved ``settings``, print the result and write its
     record to ``json_out`` (also when a server stops the run: then termination 'error').
-    Returns the result and the file the record went to instead of ``json_out``, if any."""
+    Returns the result and the file the record went to instead of ``json_out``, if any.
+
+    On a terminal a progress line shows where the solve is, unless ``quiet``
+    (:mod:`stalm.cli.solve_progress`); ``verbose`` logs each real step's decisions."""
+    from stalm.cli.solve_progress import solve_progress, verbose_logging
     from stalm.planners.registry import build_planner
     from stalm.settings.io import to_dict
     from stalm.settings.tree import with_budget
 
-    with console.status(f"solving {shown(problem.name)} with {planner_name}...") as status:
-        planner = build_planner(planner_name, settings, progress=lambda m: status.update(shown(m)))
+    title = f"solving {problem.name} with {planner_name}..."
+    with (
+        verbose_logging(console, verbose),
+        solve_progress(console, title, quiet) as observer,
+    ):
+        planner = build_planner(planner_name, settings, progress=observer)
         try:
             result = planner.solve(
                 with_budget(problem, settings.budget), seed, settings.budget.time_budget_s
@@ -161,6 +199,8 @@ def solve_and_report(
                 out.print(f"wrote {shown(write_result_json(failed, json_out))}", highlight=False)
             raise
     print_result(result)
+    if result.termination == "timeout":
+        print_timeout_advice(result, problem, settings)
     fallback: Path | None = None
     if json_out is not None:
         written = write_result_json(result_record(result, problem, settings), json_out)
@@ -175,13 +215,17 @@ def write_pictures(
     settings: RunSettings,
     gif: Path | None,
     html: Path | None,
+    *,
+    gif_size: int | None = None,
+    quiet: bool = False,
 ) -> None:
-    """The ``--gif`` animation and the ``--html`` page of a solve's result. Each is its own
-    file: a failed animation (a full disk) still leaves the page written, then raises."""
+    """The ``--gif`` animation (views of ``gif_size`` pixels; None: the default) and the
+    ``--html`` page of a solve's result. Each is its own file: a failed animation (a full
+    disk) still leaves the page written, then raises."""
     failed: StalmError | None = None
     if gif is not None:
         try:
-            write_gif(problem, result, gif)
+            write_gif(problem, result, gif, gif_size, quiet)
         except StalmError as error:
             failed = error  # raised once the page is written (main prints it)
     if html is not None:
@@ -192,16 +236,41 @@ def write_pictures(
         raise failed
 
 
-def write_gif(problem: Problem, result: PlanResult, path: Path) -> None:
-    from stalm.viz.animate import plan_frames, save_gif
+def write_gif(
+    problem: Problem,
+    result: PlanResult,
+    path: Path,
+    size: int | None = None,
+    quiet: bool = False,
+) -> None:
+    """``--gif``: the animation of a solve's plan (:func:`write_plan_gif`)."""
+    pairs = list(zip(result.plan, result.states[1:], strict=True))
+    write_plan_gif(problem, result.states[0], pairs, path, size, quiet)
+
+
+def write_plan_gif(
+    problem: Problem,
+    start: State,
+    pairs: list[tuple[Action, State]],
+    path: Path,
+    size: int | None = None,
+    quiet: bool = False,
+) -> None:
+    """The animation of ``pairs`` (an action and the state it leads to) from ``start``,
+    with the frames rendered so far shown on a terminal (unless ``quiet``)."""
+    from stalm.cli.solve_progress import solve_progress
+    from stalm.viz.animate import write_animation
+    from stalm.viz.sizes import GIF_SIZE
     from stalm.world.scene import Sim
 
-    with Sim(problem.spec) as sim, console.status("rendering the animation..."):
-        frames = plan_frames(
-            sim, result.states[0], list(zip(result.plan, result.states[1:], strict=True))
-        )
+    with (
+        Sim(problem.spec) as sim,
+        solve_progress(console, "rendering the animation...", quiet) as observer,
+    ):
         try:
-            save_gif(frames, path)
+            frames = write_animation(
+                sim, start, pairs, path, size or GIF_SIZE, progress=observer.frames
+            )
         except OSError as error:
             raise StalmError(f"--gif {path}: cannot write it ({error.strerror})") from None
-    out.print(f"wrote {shown(path)} ({len(frames)} frames)", highlight=False)
+    out.print(f"wrote {shown(path)} ({frames} frames)", highlight=False)

@@ -21,6 +21,7 @@ the same step while it comes up with task plans not yet tried there (at most
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import replace
 from typing import Any, ClassVar, cast
@@ -53,6 +54,9 @@ from stalm.trial.query_seeds import stalm_proposal_seed
 from stalm.trial.step_log import StepRecord, proposal_record
 
 __all__ = ["StalmPlanner", "StalmSettings", "StalmStep"]
+
+log = logging.getLogger(__name__)
+"""Each proposal round's plans and what Concretize made of them, at INFO."""
 
 
 class StalmStep(SearchStep):
@@ -116,6 +120,7 @@ class StalmStep(SearchStep):
         for round_ in range(settings.feedback_rounds if settings.feedback else 1):
             feedback = self.memory.holding_in(state) if settings.feedback else ()
             trial.say(f"step {done}: asking {proposer.name} for task plans")
+            trial.observer.proposal(self.proposals, proposer.name)
             query_seed = stalm_proposal_seed(trial.seed, self.proposals)
             if feedback:
                 proposal = cast(FeedbackProposer, proposer).propose(
@@ -144,6 +149,7 @@ class StalmStep(SearchStep):
             task_plans += [TaskPlan.unreadable(reason) for reason in proposal.unparseable]
             task_plans += [TaskPlan.none_found(reason) for reason in proposal.no_plan]
             trial.say(f"step {done}: concretizing {len(task_plans)} task plans")
+            trial.observer.concretize(round_, len(task_plans))
             with trial.phase("concretize"):
                 concrete = concretize(
                     domain,
@@ -166,6 +172,15 @@ class StalmStep(SearchStep):
             if proposal.set_aside:
                 round_entry["set_aside"] = list(proposal.set_aside)
             record.proposals.append(round_entry)
+            log.info(
+                "step %d, round %d: %s offered %d task plan(s)%s; %s",
+                done,
+                round_,
+                proposer.name,
+                len(task_plans),
+                f" after {len(feedback)} feedback fact(s)" if feedback else "",
+                concretize_summary(concrete),
+            )
             plans.extend(concrete.plans)
             if concrete.success and concrete.solution is not None:
                 return plans, concrete.solution
@@ -194,6 +209,17 @@ class StalmStep(SearchStep):
             refuted = self.memory.observe(grounded_in_tree(self.trial.episode.problem, tree))
             record.rules_refuted_by_tree = refuted
         return chosen
+
+
+def concretize_summary(concrete: ConcretizeResult) -> str:
+    """What Concretize made of a round's task plans, in a few words (for the log)."""
+    if concrete.success:
+        return "one reached the goal"
+    kinds = [kind for _, kind in concrete.failures]
+    if not kinds:
+        return "none reached the goal"
+    counted = {kind: kinds.count(kind) for kind in dict.fromkeys(kinds)}
+    return "none reached the goal (" + ", ".join(f"{n} {k}" for k, n in counted.items()) + ")"
 
 
 def feedback_round_record(concrete: ConcretizeResult, learned: int, refuted: int) -> dict[str, Any]:

@@ -20,6 +20,7 @@ and what this implementation adds:
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass
 from typing import Any, cast
@@ -29,8 +30,11 @@ from stalm.domain.params import Action
 from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
 from stalm.settings.tree import ExecutionRule, RunSettings
 from stalm.trial.online import ConfiguredPlanner, Decision, Trial
-from stalm.trial.step_log import StepRecord, tree_record, warm_edges
+from stalm.trial.step_log import DECISIONS, StepRecord, tree_record, warm_edges
 from stalm.world.state import State
+
+log = logging.getLogger(__name__)
+"""Each real step's search and the rule that chose what it executes, at INFO."""
 
 
 @dataclass(frozen=True)
@@ -189,6 +193,7 @@ class SearchStep:
             record.decision = how
             record.searches = searches
             record.tree = tree_record(tree, warm_edges(plans), visits_before)
+            log.info("step %d: %d search(es): %s", done, searches, DECISIONS.get(how, how))
 
         warm = plans
         while True:

@@ -115,3 +115,20 @@ def _restore_subjects(sim: Sim, state: State, motion: SweptMotion) -> None:
             sim.place_object(moved, state.pose(moved))
         else:
             sim.place_object(moved, PARKED)
+
+
+def holds(cache: PredicateCache, obj: str) -> bool:
+    """Whether ``obj`` is held in the cache's state."""
+    return cache.state.held is not None and cache.state.held.obj == obj
+
+
+def fewest(sets: object) -> frozenset[str] | None:
+    """The smallest of ``sets`` of blockers (the first of that size; stops at an empty one),
+    None if there are none."""
+    best: frozenset[str] | None = None
+    for hits in sets:  # type: ignore[attr-defined]
+        if best is None or len(hits) < len(best):
+            best = frozenset(hits)
+            if not best:
+                break
+    return best

@@ -50,11 +50,12 @@ from stalm.motion.base_motion import BasePlanner
 from stalm.motion.grasps import PITCH_RANGE, YAW_RANGE
 from stalm.motion.manipulation import PARKED
 from stalm.predicates.beside import beside, targeted_wanted
-from stalm.predicates.cache import PredicateCache, forget_object, resweep_near
+from stalm.predicates.cache import PredicateCache, fewest, forget_object, holds, resweep_near
 from stalm.predicates.deadline import Deadline, DeadlinePassed, check
 from stalm.predicates.forked import forked_map
 from stalm.predicates.goals import goal_region
 from stalm.predicates.literals import SCOPE_PREDICATE, GroundLiteral
+from stalm.predicates.progress import Report, reported_map
 from stalm.predicates.samples import (
     MotionSamples,
     PickRecord,
@@ -106,13 +107,15 @@ class PredicateEngine:
         self._extent = self.samples.hands.extent
 
     # ------------------------------------------------------------------ public
-    def compute(self, state: State, deadline: Deadline | None = None) -> PredicateCache:
+    def compute(
+        self, state: State, deadline: Deadline | None = None, report: Report | None = None
+    ) -> PredicateCache:
         """All literals of ``state`` from scratch; :exc:`DeadlinePassed` once ``deadline``
-        (None: none) has passed between two samples."""
+        (None: none) has passed between two samples. ``report`` hears how far it is."""
         if not self.occlusion:
             return PredicateCache(state=state, literals=self._symbolic(state))
         try:
-            return self._compute(state, deadline)
+            return self._compute(state, deadline, report)
         except DeadlinePassed:
             self._prepare_world(state)  # the sim as a finished computation leaves it
             raise
@@ -123,21 +126,24 @@ class PredicateEngine:
         action: ActionTuple,
         state: State,
         deadline: Deadline | None = None,
+        report: Report | None = None,
     ) -> PredicateCache:
         """The literals of ``state``, reached from ``cache.state`` by the feasible ``action``
-        (a discrete action of :mod:`stalm.domain.actions`); :exc:`DeadlinePassed` once
-        ``deadline`` (None: none) has passed between two samples. ``cache`` is not changed."""
+        (a discrete action of :mod:`stalm.domain.actions`), ``cache`` unchanged;
+        :exc:`DeadlinePassed` past ``deadline`` (None: none); ``report`` hears how far."""
         if not self.occlusion:
             return PredicateCache(state=state, literals=self._symbolic(state))
         if self.settings.relevant_only:  # the relevant set itself moves with the state
-            return self.compute(state, deadline)
+            return self.compute(state, deadline, report)
         try:
             return self._update(cache, action, state, deadline)
         except DeadlinePassed:
             self._prepare_world(state)
             raise
 
-    def _compute(self, state: State, deadline: Deadline | None) -> PredicateCache:
+    def _compute(
+        self, state: State, deadline: Deadline | None, report: Report | None = None
+    ) -> PredicateCache:
         cache = PredicateCache(state=state, literals=frozenset())
         self._prepare_world(state)
         for region in self.spec.regions:
@@ -146,11 +152,13 @@ class PredicateEngine:
         if self.settings.relevant_only:
             self._relevant(cache, deadline)  # placements only at the goal
         else:
-            self._sample_everything(cache, deadline)
-        cache.literals = self._derive(cache, deadline)
+            self._sample_everything(cache, deadline, report)
+        cache.literals = self._derive(cache, deadline, report)
         return cache
 
-    def _sample_everything(self, cache: PredicateCache, deadline: Deadline | None) -> None:
+    def _sample_everything(
+        self, cache: PredicateCache, deadline: Deadline | None, report: Report | None = None
+    ) -> None:
         """Every pick, every placement on every region, and the placements beside each
         reference that no plain placement lands at: independent samples, shared among
         ``settings.workers`` processes (:mod:`stalm.predicates.forked`)."""
@@ -161,10 +169,12 @@ class PredicateEngine:
             return self.samples.pick_record(name, state.pose(name))
 
         names = [name for name, _ in state.poses]
-        cache.picks.update(zip(names, forked_map(pick, names, workers), strict=True))
+        picks = reported_map(pick, names, workers, report, "picks")
+        cache.picks.update(zip(names, picks, strict=True))
         self._refresh_grasps(cache)
         pairs = [(obj, region) for obj in cache.grasps for region in self.spec.regions]
-        placed = forked_map(lambda pair: self._placements(cache, *pair, deadline), pairs, workers)
+        place = lambda pair: self._placements(cache, pair[0], pair[1], deadline)  # noqa: E731
+        placed = reported_map(place, pairs, workers, report, "placements")
         for (obj, region), samples in zip(pairs, placed, strict=True):
             cache.placements[(obj, region.name)] = samples
         if workers == 1:
@@ -197,7 +207,7 @@ class PredicateEngine:
                 record = self.samples.pick_record(obj, state.pose(obj))
                 cache.picks[obj] = record
                 base = cache.base[record.region].hits
-                best = _fewest((m.hits | base) & (obstacles - {obj}) for m in record.motions)
+                best = fewest((m.hits | base) & (obstacles - {obj}) for m in record.motions)
                 occluders |= set(best or ())
             self._refresh_grasps(cache)
             for target in (g for g in goal if g.obj == obj and obj in cache.grasps):
@@ -213,7 +223,7 @@ class PredicateEngine:
                         cache, obj, target.direction, target.ref, region, deadline
                     )
                 base = cache.base[region.name].hits
-                best = _fewest((s.motion.hits | base) & (obstacles - {obj}) for s in samples)
+                best = fewest((s.motion.hits | base) & (obstacles - {obj}) for s in samples)
                 occluders |= set(best or ())
             queue.extend(sorted(occluders & movable))
         cache.relevant = frozenset(seen)
@@ -283,7 +293,7 @@ class PredicateEngine:
     ) -> tuple[PlacementSample, ...]:
         check(deadline)
         grasp, offset = cache.grasps[obj]
-        return self.samples.placements(obj, grasp, offset, region, persist=_held(cache, obj))
+        return self.samples.placements(obj, grasp, offset, region, persist=holds(cache, obj))
 
     def _targeted(
         self,
@@ -307,7 +317,7 @@ class PredicateEngine:
                 ref,
                 cache.state.pose(ref),
                 region,
-                persist=_held(cache, obj),
+                persist=holds(cache, obj),
             )
         return cache.targeted[key]
 
@@ -330,7 +340,9 @@ class PredicateEngine:
         add_symbolic(self.spec, state, literals)
         return frozenset(literals)
 
-    def _derive(self, cache: PredicateCache, deadline: Deadline | None) -> frozenset[GroundLiteral]:
+    def _derive(
+        self, cache: PredicateCache, deadline: Deadline | None, report: Report | None = None
+    ) -> frozenset[GroundLiteral]:
         state = cache.state
         literals: set[GroundLiteral] = set()
         regions_of = add_symbolic(self.spec, state, literals)
@@ -340,13 +352,15 @@ class PredicateEngine:
             literals.update(GroundLiteral(SCOPE_PREDICATE, (obj,)) for obj in cache.relevant)
         for obj, record in cache.picks.items():
             base = cache.base[record.region].hits
-            best = _fewest((m.hits | base) & (obstacles - {obj}) for m in record.motions)
+            best = fewest((m.hits | base) & (obstacles - {obj}) for m in record.motions)
             if best is None:
                 cache.unreachable.add(f"pick {obj}")
                 literals.add(GroundLiteral("CannotPick", (obj,)))
                 continue
             literals.update(GroundLiteral("PickOccludedBy", (obj, x)) for x in best)
-        for obj in cache.grasps:
+        for done, obj in enumerate(cache.grasps):
+            if report is not None:
+                report("occlusions", done, len(cache.grasps))
             for region in self.spec.regions:
                 if cache.relevant is not None and (obj, region.name) not in cache.placements:
                     continue  # not at the goal: left to Concretize
@@ -377,24 +391,10 @@ class PredicateEngine:
         samples: tuple[PlacementSample, ...],
     ) -> None:
         base = cache.base[region.name].hits
-        best = _fewest((s.motion.hits | base) & (obstacles - {obj}) for s in samples)
+        best = fewest((s.motion.hits | base) & (obstacles - {obj}) for s in samples)
         if best is None:
             cache.unreachable.add(f"place {obj} {direction} {ref}")
-            if _held(cache, obj):  # an object at rest may be picked with another grasp
+            if holds(cache, obj):  # an object at rest may be picked with another grasp
                 literals.add(GroundLiteral("CannotPlace", (obj, direction, ref)))
             return
         literals.update(GroundLiteral("PlaceOccludedBy", (obj, direction, ref, x)) for x in best)
-
-
-def _held(cache: PredicateCache, obj: str) -> bool:
-    return cache.state.held is not None and cache.state.held.obj == obj
-
-
-def _fewest(sets: object) -> frozenset[str] | None:
-    best: frozenset[str] | None = None
-    for hits in sets:  # type: ignore[attr-defined]
-        if best is None or len(hits) < len(best):
-            best = frozenset(hits)
-            if not best:
-                break
-    return best

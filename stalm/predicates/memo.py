@@ -21,7 +21,7 @@ from contextlib import AbstractContextManager, nullcontext
 from typing import Protocol
 
 from stalm.predicates.deadline import Deadline
-from stalm.predicates.engine import ActionTuple, PredicateCache, PredicateEngine
+from stalm.predicates.engine import ActionTuple, PredicateCache, PredicateEngine, Report
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -46,8 +46,8 @@ class PredicateMemo:
 
     ``timing`` charges each computation to the trial's 'predicates' phase (the trial's
     clock; None: nothing is timed). ``deadline`` bounds every computation (the trial's;
-    None: none). ``computed_from_scratch`` and ``brought_forward`` count the two kinds of
-    computation.
+    None: none). ``report`` hears how far a computation is (None: nobody).
+    ``computed_from_scratch`` and ``brought_forward`` count the two kinds of computation.
     """
 
     def __init__(
@@ -55,10 +55,13 @@ class PredicateMemo:
         engine: PredicateEngine,
         timing: Timing | None = None,
         deadline: Deadline | None = None,
+        report: Report | None = None,
     ) -> None:
         self.engine = engine
         self.timing = timing
         self.deadline = deadline
+        self.report = report
+        """Hears how far each computation is (:data:`~stalm.predicates.engine.Report`)."""
         self._known: dict[State, PredicateCache] = {}
         self.computed_from_scratch = 0
         self.brought_forward = 0
@@ -83,12 +86,12 @@ class PredicateMemo:
             return known
         if parent is None or action is None:
             with self._timed():
-                cache = self.engine.compute(state, self.deadline)
+                cache = self.engine.compute(state, self.deadline, self.report)
             self.computed_from_scratch += 1
         else:
             before = self.of(parent)
             with self._timed():
-                cache = self.engine.update(before, action, state, self.deadline)
+                cache = self.engine.update(before, action, state, self.deadline, self.report)
             self.brought_forward += 1
         self._known[state] = cache
         return cache

@@ -12,17 +12,13 @@ the registry imports the planners: imports go one way.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
 
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.prompt import PromptOptions
+from stalm.progress import Progress as Progress  # where a planner reports what it is doing
 from stalm.settings.io import with_values
 from stalm.settings.tree import FLAT_NAMES, RunSettings
-
-Progress = Callable[[str], None]
-"""Where a planner reports what it is doing (``stalm solve`` prints it)."""
-
 
 _TREE = RunSettings()
 """The settings tree's defaults, which :class:`PlannerConfig`'s fields take as theirs."""

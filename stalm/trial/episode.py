@@ -21,6 +21,7 @@ from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.predicates.memo import PredicateMemo
+from stalm.progress import QUIET, TrialObserver
 from stalm.proposers.language_model import Proposal
 from stalm.search.concretize import ConcretizeResult
 from stalm.search.failure_kinds import figure5_kinds
@@ -41,13 +42,17 @@ class PhaseClock:
     """
 
     predicates: float = 0.0
-    llm: float = 0.0
+    proposer: float = 0.0
     concretize: float = 0.0
     tree: float = 0.0
     execution: float = 0.0
     setup: float = 0.0
+    observer: TrialObserver = field(default=QUIET, repr=False, compare=False)
+    """Told each phase the trial enters, and the one it comes back to (it only listens)."""
     _inner: list[float] = field(default_factory=list, repr=False)
     """Per running :meth:`timed` block: the seconds of the blocks timed inside it so far."""
+    _names: list[str | None] = field(default_factory=list, repr=False)
+    """Per running :meth:`timed` block: its phase."""
 
     @contextmanager
     def timed(self, phase: str | None) -> Iterator[None]:
@@ -57,16 +62,23 @@ class PhaseClock:
         seconds :meth:`Episode.record_query` charges), taken out of the enclosing phase.
         """
         self._inner.append(0.0)
+        self._names.append(phase)
+        if phase is not None:
+            self.observer.phase(phase)
         tick = time.monotonic()
         try:
             yield
         finally:
             elapsed = time.monotonic() - tick
             inner = self._inner.pop()
+            self._names.pop()
             if phase is not None:
                 setattr(self, phase, getattr(self, phase) + elapsed - inner)
             if self._inner:
                 self._inner[-1] += elapsed
+            outer = next((name for name in reversed(self._names) if name is not None), None)
+            if phase is not None and outer is not None and outer != phase:
+                self.observer.phase(outer)  # back in the phase this one was nested in
 
 
 @dataclass(frozen=True)
@@ -121,12 +133,26 @@ class Episode:
     """:func:`cpu_seconds` when the trial began."""
 
     @staticmethod
-    def begin(problem: Problem, time_budget_s: float | None) -> Episode:
-        """A trial starting now from the problem's initial state (budget None: the problem's)."""
+    def begin(
+        problem: Problem, time_budget_s: float | None, observer: TrialObserver = QUIET
+    ) -> Episode:
+        """A trial starting now from the problem's initial state (budget None: the problem's);
+        ``observer`` hears each phase it enters and each predicate computation's progress."""
         start = time.monotonic()
         budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
         state = problem.initial_state
-        return Episode(problem, start, start + budget, state, states=[state])
+        return Episode(
+            problem,
+            start,
+            start + budget,
+            state,
+            states=[state],
+            clock=PhaseClock(observer=observer),
+        )
+
+    @property
+    def observer(self) -> TrialObserver:
+        return self.clock.observer
 
     def out_of_time(self) -> bool:
         return time.monotonic() >= self.deadline
@@ -144,7 +170,7 @@ class Episode:
     def keep_predicates(self, engine: PredicateEngine) -> PredicateMemo:
         """The trial's predicate memo, computing with ``engine``: timed by this episode's
         clock as the 'predicates' phase and bounded by its deadline."""
-        self.memo = PredicateMemo(engine, self.clock, self.out_of_time)
+        self.memo = PredicateMemo(engine, self.clock, self.out_of_time, self.observer.predicates)
         return self.memo
 
     def predicates(self) -> PredicateCache:
@@ -178,7 +204,7 @@ class Episode:
         self.llm_calls += proposal.calls
         self.prompt_tokens += proposal.prompt_tokens
         self.completion_tokens += proposal.completion_tokens
-        self.clock.llm += proposal.original_seconds
+        self.clock.proposer += proposal.original_seconds
         self.charge(proposal.original_seconds - proposal.seconds)
         self.queries.append(
             QueryRecord(
@@ -199,6 +225,7 @@ class Episode:
 
     def execute(self, domain: Domain, action: Action) -> None:
         """Apply a sampled action that ψ found feasible in the current state."""
+        self.observer.phase("execution")
         tick = time.monotonic()
         outcome = domain.step(self.state, action)
         self.state = outcome.state
@@ -240,7 +267,7 @@ class Episode:
             states=tuple(self.states),
             times=PhaseTimes(
                 clock.predicates,
-                clock.llm,
+                clock.proposer,
                 clock.concretize,
                 clock.tree,
                 clock.execution,

@@ -15,6 +15,7 @@ search tree kept between real steps, phase timing and progress messages.
 from __future__ import annotations
 
 import dataclasses
+import logging
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -30,6 +31,7 @@ from stalm.predicates.deadline import DeadlinePassed
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.predicates.memo import PredicateMemo
 from stalm.predicates.samples import PredicateSettings
+from stalm.progress import TrialObserver, observer_of
 from stalm.search import SearchSettings, SearchTree
 from stalm.settings.planner_config import Progress
 from stalm.settings.tree import RunSettings
@@ -39,6 +41,9 @@ from stalm.world.problem import Problem
 from stalm.world.scene import Sim
 from stalm.world.scene_build import SceneAbandoned
 from stalm.world.state import State
+
+log = logging.getLogger(__name__)
+"""Each real step's decision, at INFO (``stalm solve --verbose`` shows them)."""
 
 Decision = tuple[Action, ...] | str
 """What a decision returns: the actions to execute now (none: decide again from the same
@@ -67,7 +72,6 @@ class Trial:
     episode: Episode
     rng: np.random.Generator
     seed: int
-    progress: Progress | None = None
     reuse_tree: bool = False
     """Keep the executed child's subtree as the next step's tree (:meth:`execute`)."""
     tree: SearchTree | None = None
@@ -105,9 +109,13 @@ class Trial:
             return search
         return dataclasses.replace(search, horizon=self.problem.horizon)
 
+    @property
+    def observer(self) -> TrialObserver:
+        """Who watches the trial (the episode's: the same one the planner was given)."""
+        return self.episode.observer
+
     def say(self, message: str) -> None:
-        if self.progress is not None:
-            self.progress(message)
+        self.observer.message(message)
 
     @contextmanager
     def phase(self, name: str | None) -> Iterator[None]:
@@ -198,7 +206,11 @@ class OnlinePlanner(ABC):
         'timeout'."""
         seed = check_seed(seed)
         time_budget_s = check_time_budget(time_budget_s)
-        episode = Episode.begin(problem, time_budget_s)
+        observer = observer_of(self.progress)
+        episode = Episode.begin(problem, time_budget_s, observer)
+        observer.started(
+            self.name, problem.name, problem.horizon, episode.deadline - episode.start_time
+        )
         try:
             with episode.clock.timed("setup"):
                 domain = Domain(
@@ -242,7 +254,6 @@ class OnlinePlanner(ABC):
             episode,
             np.random.default_rng(seed),
             seed,
-            progress=self.progress,
             reuse_tree=self.reuse_tree,
         )
         if episode.out_of_time():
@@ -289,11 +300,20 @@ def run(trial: Trial, decider: Decider) -> str:
     A predicate computation the trial's deadline cut short (:exc:`DeadlinePassed`, raised
     from wherever a decision needed predicates) ends the trial as 'timeout'; what was
     executed before stays the trial's plan."""
+    horizon = trial.problem.horizon
     try:
         while (termination := trial.episode.stop_reason(trial.domain)) is None:
+            trial.observer.step(trial.done, horizon)
             decision = decider.decide()
             if isinstance(decision, str):
+                log.info("step %d of %d: %s", trial.done, horizon, decision)
                 return decision
+            log.info(
+                "step %d of %d: executes %s",
+                trial.done,
+                horizon,
+                ", ".join(str(action.discrete) for action in decision) or "nothing (asks again)",
+            )
             for action in decision:
                 trial.execute(action)
     except DeadlinePassed:

@@ -1,10 +1,16 @@
 """Animations of a plan executing: the base driving, the arm moving, objects carried, the door
-swinging. Frames are rendered with TinyRenderer (headless) and written as a GIF."""
+swinging. Frames are rendered with TinyRenderer (headless) and written as a GIF.
+
+Rendering is what an animation costs (two TinyRenderer views, ~45 ms a frame whatever their
+size: the robot's meshes dominate), so :func:`write_animation` renders one motion frame in
+:data:`FRAME_STRIDE` and every action's last one (the state it leads to is always shown),
+each shown for longer; :func:`plan_motion`, which ``stalm view``'s page follows, is unchanged.
+"""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from PIL import Image
@@ -15,6 +21,7 @@ from stalm.files import replacing
 from stalm.motion.arm_motion import interpolate_waypoints
 from stalm.motion.base_motion import densify
 from stalm.viz.render import perspective, top_down
+from stalm.viz.sizes import GIF_SIZE, check_size
 from stalm.world.scene import Sim
 from stalm.world.state import State
 
@@ -22,6 +29,10 @@ BASE_STEP = 0.6
 """Metres the base moves between two frames."""
 ARM_FRAMES = 3
 """Frames per arm motion segment between two waypoints."""
+FRAME_STRIDE = 4
+""":func:`write_animation` renders one motion frame in this many (and each action's last)."""
+FRAME_MS = 200
+"""How long :func:`write_animation` shows each frame."""
 
 
 def _frame(sim: Sim, size: int) -> Image.Image:
@@ -34,10 +45,54 @@ def _frame(sim: Sim, size: int) -> Image.Image:
 
 
 def plan_frames(
-    sim: Sim, start: State, plan: Sequence[tuple[Action, State]], size: int = 240
+    sim: Sim,
+    start: State,
+    plan: Sequence[tuple[Action, State]],
+    size: int = GIF_SIZE,
+    stride: int = 1,
+    progress: Callable[[int, int], None] | None = None,
 ) -> list[Image.Image]:
-    """Frames of ``plan``: pairs of an action and the state it leads to, from ``start``."""
-    return [_frame(sim, size) for _ in plan_motion(sim, start, plan)]
+    """Frames of ``plan``: pairs of an action and the state it leads to, from ``start``;
+    with ``stride`` above 1 only the frames :func:`kept_frames` keeps. ``progress`` hears
+    how many of them are rendered."""
+    shown = kept_frames(list(plan_motion(sim, start, plan)), stride)
+    frames: list[Image.Image] = []
+    for index, _ in enumerate(plan_motion(sim, start, plan)):
+        if index in shown:
+            frames.append(_frame(sim, size))
+            if progress is not None:
+                progress(len(frames), len(shown))
+    return frames
+
+
+def kept_frames(actions: Sequence[int], stride: int) -> frozenset[int]:
+    """Which frames of a motion to render, given the action each frame shows
+    (:func:`plan_motion`'s yields): the first, one in ``stride`` of the rest, and the last of
+    each action (the state it leads to)."""
+    kept = {index for index in range(len(actions)) if index % stride == 0}
+    kept |= {
+        index
+        for index in range(len(actions))
+        if index + 1 == len(actions) or actions[index + 1] != actions[index]
+    }
+    return frozenset(kept)
+
+
+def write_animation(
+    sim: Sim,
+    start: State,
+    plan: Sequence[tuple[Action, State]],
+    path: Path,
+    size: int = GIF_SIZE,
+    progress: Callable[[int, int], None] | None = None,
+) -> int:
+    """Render ``plan``'s animation (one frame in :data:`FRAME_STRIDE`, each action's last;
+    two views of ``size`` pixels) and write it to ``path`` (:func:`save_gif`); the frames
+    written. ``progress`` hears how many frames are rendered, of how many."""
+    check_size(size, "--gif-size")
+    frames = plan_frames(sim, start, plan, size, FRAME_STRIDE, progress)
+    save_gif(frames, path, FRAME_MS)
+    return len(frames)
 
 
 def plan_motion(sim: Sim, start: State, plan: Sequence[tuple[Action, State]]) -> Iterator[int]:

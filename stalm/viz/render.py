@@ -14,6 +14,9 @@ from PIL import Image
 
 from stalm.errors import StalmError
 from stalm.files import replacing
+from stalm.viz.sizes import MAX_SIZE as MAX_SIZE
+from stalm.viz.sizes import MIN_SIZE as MIN_SIZE
+from stalm.viz.sizes import check_size
 from stalm.world.scene import Sim
 from stalm.world.state import State
 
@@ -59,20 +62,6 @@ def perspective(sim: Sim, width: int = 640, height: int = 480) -> Image.Image:
         55, width / height, 0.1, 40, physicsClientId=sim.client
     )
     return _camera_image(sim, view, projection, width, height)
-
-
-MIN_SIZE = 16
-MAX_SIZE = 4096
-"""Pixels per view: PyBullet's renderer divided by zero below 1, aborted on a negative size
-and crashed the process at 30000 (a 60000 x 30000 canvas)."""
-
-
-def check_size(size: int, name: str = "size") -> int:
-    """``size`` if it is within [:data:`MIN_SIZE`, :data:`MAX_SIZE`], else a StalmError
-    naming ``name`` (``--size`` on the command line)."""
-    if not MIN_SIZE <= size <= MAX_SIZE:
-        raise StalmError(f"{name} must be between {MIN_SIZE} and {MAX_SIZE} pixels, got {size}")
-    return size
 
 
 def render_state(sim: Sim, state: State, size: int = 640) -> Image.Image:

@@ -30,6 +30,7 @@ from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
 from stalm.errors import StalmError
 from stalm.files import read_json_file
 from stalm.trial.replay import replay_result_json
+from stalm.trial.result import phase_times_json
 from stalm.trial.step_log import DECISIONS
 from stalm.viz.animate import plan_motion
 from stalm.world.problem import Problem
@@ -307,8 +308,9 @@ def view_data(problem: Problem, data: dict[str, Any], source: str = "") -> dict[
         "goal": [str(atom) for atom in problem.goal],
         "floor": [[x0, y0], [x1, y1]],
         "result": {
-            key: data.get(key)
-            for key in ("planner", "seed", "success", "termination", "times", "counters")
+            **{key: data.get(key) for key in ("planner", "seed", "success", "termination")},
+            "times": phase_times_json(data.get("times")),  # an old record's 'llm' as 'proposer'
+            "counters": data.get("counters"),
         },
         "llm_plan_failures": data.get("llm_plan_failures") or {},
         "proposer": details.get("proposer") if isinstance(details, dict) else None,

@@ -107,7 +107,7 @@ def test_a_failed_gif_does_not_skip_the_html(monkeypatch, tmp_path: Path) -> Non
 
     pages: list[Path] = []
 
-    def failing_gif(problem, result, path):  # type: ignore[no-untyped-def]
+    def failing_gif(problem, result, path, *rest):  # type: ignore[no-untyped-def]
         raise StalmError(f"--gif {path}: cannot write it (No space left on device)")
 
     monkeypatch.setattr(solve_output, "write_gif", failing_gif)

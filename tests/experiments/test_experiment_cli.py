@@ -44,7 +44,7 @@ def _check_records(records: tuple[dict, ...], count: int) -> None:
         assert record["termination"] in ("goal", "timeout", "horizon", "no_progress")
         assert record["success"] == (record["termination"] == "goal")
         assert record["time_s"] > 0
-        assert set(record["times"]) >= {"predicates", "llm", "tree_search", "total"}
+        assert set(record["times"]) >= {"predicates", "proposer", "tree_search", "total"}
         assert record["versions"]["stalm"]
 
 

@@ -202,3 +202,31 @@ class FailingFakeBackend(CountingFakeBackend):
 
     def complete(self, request: Any) -> Any:
         raise AssertionError(f"the model was asked although the cache should answer: {request}")
+
+
+LLAMA_CPP_SCHEMA_ERROR = {
+    "error": {
+        "code": 500,
+        "message": "JSON schema conversion failed:\nUnrecognized schema: prefixItems",
+        "type": "server_error",
+    }
+}
+"""What llama.cpp's server answers (HTTP 500) to a JSON schema it cannot convert."""
+
+
+class JsonSchemaRefusingServerDouble(ScriptedHTTPServerDouble):
+    """A test double of llama.cpp's OpenAI-compatible server on a real loopback socket: HTTP
+    500 (:data:`LLAMA_CPP_SCHEMA_ERROR`) to any request with a ``json_schema`` response
+    format; ``text`` as the one reply to any other (a GBNF grammar is taken, not enforced).
+    Every request body is recorded, as the scripted double does."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__()
+        self.text = text
+        self.responder = self._reply
+
+    def _reply(self, body: dict[str, Any]) -> ScriptedReply:
+        response_format = body.get("response_format") or {}
+        if response_format.get("type") == "json_schema":
+            return ScriptedReply(status=500, body=LLAMA_CPP_SCHEMA_ERROR)
+        return ScriptedReply(body=chat_completion([self.text]))

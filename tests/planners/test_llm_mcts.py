@@ -381,5 +381,5 @@ def test_llm_mcts_solves_the_smallest_case_when_the_replies_start_with_the_right
     [query, *_] = data["details"]["llm_queries"]
     assert query["from_cache"] is False and len(data["details"]["llm_queries"]) == sum(calls)
     times = data["times"]
-    assert times["predicates"] > 0 and times["llm"] > 0
-    assert times["predicates"] + times["llm"] + times["tree_search"] <= times["total"]
+    assert times["predicates"] > 0 and times["proposer"] > 0
+    assert times["predicates"] + times["proposer"] + times["tree_search"] <= times["total"]

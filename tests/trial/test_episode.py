@@ -75,12 +75,12 @@ def test_a_replayed_query_is_charged_its_original_seconds(problems, domain_facto
     assert replayed.from_cache and replayed.seconds < SLOW / 2
     assert replayed.original_seconds == pytest.approx(made.seconds, abs=CACHE_IO)
     # the replay's clock counts the original call: same LLM time, deadline moved earlier
-    assert replay.clock.llm == pytest.approx(fresh.clock.llm, abs=CACHE_IO)
+    assert replay.clock.proposer == pytest.approx(fresh.clock.proposer, abs=CACHE_IO)
     assert deadline - replay.deadline == pytest.approx(
         made.seconds - replayed.seconds, abs=CACHE_IO
     )
     result = replay.finish(domain_factory("P2"), "stalm", 0, "horizon")
-    assert result.times.llm >= SLOW and result.times.total >= result.times.llm
+    assert result.times.proposer >= SLOW and result.times.total >= result.times.proposer
     [query] = result.details["llm_queries"]
     assert query["from_cache"] is True and query["plans"] == 5
     assert query["original_seconds"] == pytest.approx(made.seconds, abs=CACHE_IO)

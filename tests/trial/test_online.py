@@ -48,12 +48,19 @@ class EngineDouble:
         self.computed: list[object] = []
         self.updated: list[tuple[object, object, object]] = []
 
-    def compute(self, state: object, deadline: object = None) -> PredicateCache:
+    def compute(
+        self, state: object, deadline: object = None, report: object = None
+    ) -> PredicateCache:
         self.computed.append(state)
         return PredicateCache(state=state, literals=frozenset())  # type: ignore[arg-type]
 
     def update(
-        self, cache: PredicateCache, action: object, state: object, deadline: object = None
+        self,
+        cache: PredicateCache,
+        action: object,
+        state: object,
+        deadline: object = None,
+        report: object = None,
     ) -> PredicateCache:
         self.updated.append((cache.state, action, state))
         return PredicateCache(state=state, literals=frozenset())  # type: ignore[arg-type]

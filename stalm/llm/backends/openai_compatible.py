@@ -11,7 +11,8 @@ completions API, with three differences handled here:
 * **Constrained output.** Servers with structured output take a JSON schema
   (``constraint_style="json_schema"``; the JSON reply is turned back into the paper's text
   form); llama.cpp's servers take a GBNF grammar in the ``grammar`` field
-  (``constraint_style="gbnf"``).
+  (``constraint_style="gbnf"``). A server that refuses the one sent first gets the other,
+  with a one-line notice (:mod:`stalm.llm.backends.constraint_styles`).
 * **Failures.** Rate limits, 5xx and timeouts are retried with bounded exponential backoff;
   a wrong key, an unknown model, an unreachable server or a body that is not JSON is one
   clear :class:`~stalm.errors.StalmError` naming the URL and the model.
@@ -35,14 +36,25 @@ import functools
 import os
 import threading
 import time
+import warnings
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import TYPE_CHECKING, Any, Literal, cast, get_args
-from urllib.parse import urlsplit
+from typing import TYPE_CHECKING, Any
 
-from stalm.errors import StalmError
+from stalm.errors import StalmError, StalmWarning
 from stalm.llm.backends.base import LLMReply, LLMRequest, LLMResponse
 from stalm.llm.backends.chat_replies import chat_replies
+from stalm.llm.backends.constraint_styles import (
+    CONSTRAINT_STYLE_ENV,
+    CONSTRAINT_STYLES,
+    REFUSALS,
+    ConstraintRefused,
+    ConstraintStyle,
+    both_refused,
+    check_constraint_style,
+    other_style,
+    switched_notice,
+)
 from stalm.llm.backends.retries import (
     RETRYABLE_STATUS,
     DeadlinePassed,
@@ -51,17 +63,22 @@ from stalm.llm.backends.retries import (
     run_until,
     time_left,
 )
+from stalm.llm.backends.server_urls import check_base_url, env, is_openai_api, server_url
 
 if TYPE_CHECKING:  # imported where used: it adds a third of a second to every CLI start
     import openai
 
-ConstraintStyle = Literal["json_schema", "gbnf"]
-CONSTRAINT_STYLES: tuple[str, ...] = get_args(ConstraintStyle)
+__all__ = [
+    "CONSTRAINT_STYLES",
+    "ConstraintStyle",
+    "OpenAICompatibleBackend",
+    "check_constraint_style",
+    "server_url",
+]
 
 BASE_URL_ENV = "STALM_LLM_BASE_URL"
 MODEL_ENV = "STALM_LLM_MODEL"
 API_KEY_ENV = "STALM_LLM_API_KEY"
-CONSTRAINT_STYLE_ENV = "STALM_LLM_CONSTRAINT_STYLE"
 OPENAI_DEFAULT_BASE_URL = "https://api.openai.com/v1"
 # Local servers accept any key, but the openai client refuses to start without one.
 _PLACEHOLDER_KEY = "sk-no-key-required"
@@ -72,56 +89,6 @@ DISCOVERY_TIMEOUT_S = 15.0
 
 SERVER_PROVIDER = "openai-compatible"
 """The provider part of a server's identity (:mod:`stalm.llm.backends.identity`)."""
-
-
-def server_url(url: str) -> str:
-    """``url`` in the form that names one server: scheme and host in lower case, the port
-    only when it is not the scheme's default, no trailing slash (the reply cache keys by it)."""
-    parts = urlsplit(url.strip())
-    scheme, host = parts.scheme.lower(), (parts.hostname or "").lower()
-    default = {"http": 80, "https": 443}.get(scheme)
-    port = f":{parts.port}" if parts.port is not None and parts.port != default else ""
-    if ":" in host:  # an IPv6 literal keeps its brackets
-        host = f"[{host}]"
-    return f"{scheme}://{host}{port}{parts.path.rstrip('/')}"
-
-
-def _is_openai_api(url: str) -> bool:
-    """True only for OpenAI's own API over HTTPS (not a look-alike host, not plain HTTP)."""
-    parts = urlsplit(url)
-    return parts.scheme == "https" and parts.hostname == "api.openai.com"
-
-
-def _check_base_url(url: str) -> str:
-    """``url`` if it is an http(s) URL with a host, else a StalmError naming it."""
-    try:
-        parts = urlsplit(url)
-        host = parts.hostname
-        parts.port  # noqa: B018 - raises ValueError for a port that is not a number
-    except ValueError as error:
-        raise StalmError(f"base URL {url!r} is not a valid URL ({error})") from None
-    if parts.scheme not in ("http", "https") or not host:
-        raise StalmError(
-            f"base URL {url!r} is not an http(s) URL with a host, e.g. http://127.0.0.1:8080/v1"
-        )
-    return url
-
-
-def _env(*names: str) -> str | None:
-    for name in names:
-        value = os.environ.get(name)
-        if value:
-            return value
-    return None
-
-
-def check_constraint_style(style: str) -> ConstraintStyle:
-    """``style`` as a :data:`ConstraintStyle`, or a StalmError listing the valid ones."""
-    if style not in CONSTRAINT_STYLES:
-        raise StalmError(
-            f"unknown constraint style {style!r}; expected one of {', '.join(CONSTRAINT_STYLES)}"
-        )
-    return cast(ConstraintStyle, style)
 
 
 class OpenAICompatibleBackend:
@@ -149,11 +116,11 @@ class OpenAICompatibleBackend:
         sleep: Callable[[float], None] = time.sleep,
         max_concurrency: int = 8,
     ) -> None:
-        self._base_url = (base_url or _env(BASE_URL_ENV, "OPENAI_BASE_URL") or "").rstrip("/")
+        self._base_url = (base_url or env(BASE_URL_ENV, "OPENAI_BASE_URL") or "").rstrip("/")
         if self._base_url:
-            _check_base_url(self._base_url)
-        self._is_openai = not self._base_url or _is_openai_api(self._base_url)
-        self._model = model or _env(MODEL_ENV)
+            check_base_url(self._base_url)
+        self._is_openai = not self._base_url or is_openai_api(self._base_url)
+        self._model = model or env(MODEL_ENV)
         key, self._key_source = api_key, "argument" if api_key else None
         if not key:
             # an OpenAI key is for OpenAI: another server never sees it (module docstring)
@@ -171,7 +138,7 @@ class OpenAICompatibleBackend:
                     f"no model named for {self.url}: use --llm openai:MODEL or set {MODEL_ENV}"
                 )
         self._constraint_style = check_constraint_style(
-            constraint_style or _env(CONSTRAINT_STYLE_ENV) or "json_schema"
+            constraint_style or env(CONSTRAINT_STYLE_ENV) or "json_schema"
         )
         self._json_schema_strict = json_schema_strict
         self._timeout_s = timeout_s
@@ -181,6 +148,8 @@ class OpenAICompatibleBackend:
         self._lock = threading.Lock()
         # Learned from the server: None until a batch shows whether it honours ``n``.
         self._server_honours_n: bool | None = None
+        self._style_taken = False
+        """A constrained request was answered: the style is the server's (no more trying)."""
         import openai
 
         self._client = openai.OpenAI(
@@ -287,7 +256,7 @@ class OpenAICompatibleBackend:
         return LLMResponse(replies=tuple(replies), backend=self.name, model=model)
 
     def _request_kwargs(
-        self, request: LLMRequest, model: str, n: int, seed: int | None
+        self, request: LLMRequest, model: str, n: int, seed: int | None, style: ConstraintStyle
     ) -> dict[str, Any]:
         kwargs: dict[str, Any] = {
             "model": model,
@@ -303,7 +272,7 @@ class OpenAICompatibleBackend:
         if seed is not None:
             kwargs["seed"] = seed
         if request.constraint is not None:
-            if self._constraint_style == "json_schema":
+            if style == "json_schema":
                 kwargs["response_format"] = {
                     "type": "json_schema",
                     "json_schema": {
@@ -317,11 +286,44 @@ class OpenAICompatibleBackend:
         return kwargs
 
     def _call(self, request: LLMRequest, model: str, n: int, seed: int | None) -> list[LLMReply]:
-        """One HTTP request (with retries) -> its choices as replies; :class:`DeadlinePassed`
-        when the request's deadline comes first (see the module docstring)."""
+        """One request's replies (:meth:`send`); until the server has answered a constrained
+        request, a refused constraint is sent once more in the other style, which the run
+        then keeps, saying so in one line (:mod:`~stalm.llm.backends.constraint_styles`)."""
+        style = self._constraint_style
+        if request.constraint is None or self._style_taken:
+            return self.send(request, model, n, seed, style)
+        try:
+            replies = self.send(request, model, n, seed, style, refusable=True)
+        except ConstraintRefused as refused:
+            other = other_style(style)
+            try:
+                replies = self.send(request, model, n, seed, other, refusable=True)
+            except ConstraintRefused as again:
+                raise both_refused(self._describe(model), refused, again) from None
+            with self._lock:
+                switched, self._constraint_style = self._constraint_style != other, other
+            if switched:
+                warnings.warn(switched_notice(self.url, refused, other), StalmWarning, 2)
+        self._style_taken = True
+        return replies
+
+    def send(
+        self,
+        request: LLMRequest,
+        model: str,
+        n: int,
+        seed: int | None,
+        style: ConstraintStyle,
+        *,
+        refusable: bool = False,
+    ) -> list[LLMReply]:
+        """One HTTP request (with retries) -> its choices as replies, the constraint sent in
+        ``style``; :class:`DeadlinePassed` when the request's deadline comes first (see the
+        module docstring). ``refusable``: a status with which a server refuses a constraint
+        (:data:`REFUSALS`) raises :class:`ConstraintRefused` at once, unretried."""
         import openai
 
-        kwargs = self._request_kwargs(request, model, n, seed)
+        kwargs = self._request_kwargs(request, model, n, seed, style)
         where = self._describe(model)
         deadline = request.deadline
         last_problem = ""
@@ -351,6 +353,8 @@ class OpenAICompatibleBackend:
                 ) from error
             except openai.APIStatusError as error:
                 status = error.status_code
+                if refusable and status in REFUSALS:
+                    raise ConstraintRefused(style, status, str(error.message)) from None
                 if status in RETRYABLE_STATUS or status >= 500:
                     last_problem = f"HTTP {status}: {error.message}"
                     retry_after = retry_after_s(error)
@@ -370,7 +374,7 @@ class OpenAICompatibleBackend:
                     request,
                     where,
                     time.perf_counter() - started,
-                    json_schema=self._constraint_style == "json_schema",
+                    json_schema=style == "json_schema",
                 )
             if attempt + 1 < self._retry.max_attempts:
                 delay = self._retry.delay_s(attempt, retry_after)
