@@ -14,7 +14,6 @@ standing pose side along the region's +x, v to the left), so layouts read like t
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, Any, Literal
 
 from pydantic import (
@@ -28,6 +27,7 @@ from pydantic import (
 
 from stalm.errors import StalmError
 from stalm.geometry.directions import DIRECTIONS
+from stalm.geometry.footprints import planar_footprints_overlap, rotated_half_extent
 from stalm.world.spec_values import (
     MAX_FLOOR_SIDE,
     RGBA,
@@ -271,7 +271,7 @@ class ProblemSpec(_Spec):
             region = regions[obj.on]
             ux, uy = region.usable_size
             hx, hy, _ = obj.half_extents
-            reach = _rotated_half_extent(hx, hy, obj.yaw)
+            reach = rotated_half_extent(hx, hy, obj.yaw)
             if abs(obj.at[0]) + reach[0] > ux / 2 + 1e-6 or abs(obj.at[1]) + reach[1] > (
                 uy / 2 + 1e-6
             ):
@@ -378,14 +378,6 @@ def _footprint(
     return (x, y, 0.0, obj.radius, None)
 
 
-def _corners(u: float, v: float, yaw: float, hx: float, hy: float) -> list[tuple[float, float]]:
-    c, s = math.cos(yaw), math.sin(yaw)
-    return [
-        (u + c * du - s * dv, v + s * du + c * dv)
-        for du, dv in ((hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy))
-    ]
-
-
 def _footprints_overlap(a: ObjectSpec, b: ObjectSpec) -> bool:
     """Do the 2D footprints of two objects on one region, at their start, overlap?"""
     return footprints_overlap(a, (*a.at, a.yaw), b, (*b.at, b.yaw))
@@ -400,33 +392,4 @@ def footprints_overlap(
 ) -> bool:
     """Do the 2D footprints of ``a`` at (x, y, yaw) ``at_a`` and ``b`` at ``at_b`` (one planar
     frame) share more than ``slack`` metres?"""
-    ua, va, ya, ra, ha = _footprint(a, *at_a)
-    ub, vb, yb, rb, hb = _footprint(b, *at_b)
-    if ha is None and hb is None:
-        return math.dist((ua, va), (ub, vb)) < ra + rb - slack
-    if ha is None or hb is None:  # a rectangle and a circle
-        (cu, cv, cr), (u, v, yaw, hx, hy) = (
-            ((ua, va, ra), (ub, vb, yb, rb, hb))
-            if ha is None
-            else ((ub, vb, rb), (ua, va, ya, ra, ha))
-        )
-        assert hy is not None
-        c, s = math.cos(yaw), math.sin(yaw)
-        du, dv = cu - u, cv - v
-        lu, lv = c * du + s * dv, -s * du + c * dv  # circle centre in the rectangle's frame
-        nearest = (max(-hx, min(hx, lu)), max(-hy, min(hy, lv)))
-        return math.dist((lu, lv), nearest) < cr - slack
-    assert ha is not None and hb is not None
-    first, second = _corners(ua, va, ya, ra, ha), _corners(ub, vb, yb, rb, hb)
-    for yaw in (ya, ya + math.pi / 2, yb, yb + math.pi / 2):  # separating axis theorem
-        axis = (math.cos(yaw), math.sin(yaw))
-        pa = [x * axis[0] + y * axis[1] for x, y in first]
-        pb = [x * axis[0] + y * axis[1] for x, y in second]
-        if min(pa) >= max(pb) - slack or min(pb) >= max(pa) - slack:
-            return False
-    return True
-
-
-def _rotated_half_extent(hx: float, hy: float, yaw: float) -> tuple[float, float]:
-    c, s = abs(math.cos(yaw)), abs(math.sin(yaw))
-    return (c * hx + s * hy, s * hx + c * hy)
+    return planar_footprints_overlap(_footprint(a, *at_a), _footprint(b, *at_b), slack)
