@@ -10,7 +10,6 @@ in the pocket leave the front free for the grill.
 
 from __future__ import annotations
 
-import itertools
 import json
 
 import numpy as np
@@ -19,8 +18,8 @@ import pytest
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.mdp import Domain
 from stalm.domain.outcome import Infeasibility
+from stalm.experiments.trap_check import check_record, trap_violations
 from stalm.geometry.transforms import se2_to_world
-from stalm.trial.replay import replay_result_json
 from stalm.world.problem import Problem, load_problem
 from stalm.world.relations import at_position
 from stalm.world.spec import ProblemSpec
@@ -149,21 +148,21 @@ def test_the_sweep_finds_the_arm_reaching_over_the_old_grill(name) -> None:
 # ---------------------------------------------------------------- as a user's solve meets it
 
 
-def trap_violations(problem: Problem, states: tuple[State, ...]) -> list[str]:
-    """Each step of an executed plan that puts something on the walled counter while the
-    grill stands on it."""
-    counter = TRAPS[problem.name][0]
-    spec = problem.spec
-    found = []
-    for step, (before, after) in enumerate(itertools.pairwise(states), start=1):
-        if before.held is None or before.held.obj == "beef_grill" or after.held is not None:
-            continue
-        placed = before.held.obj
-        if at_position(spec, after, placed, "on", counter) and at_position(
-            spec, after, "beef_grill", "on", counter
-        ):
-            found.append(f"step {step}: {placed} placed on {counter} with the grill on it")
-    return found
+def test_the_trap_check_names_a_can_put_behind_the_grill(domain_factory) -> None:
+    domain = domain_factory("P6")  # the grill starts at the front of the walled counter
+    counter, can, _ = TRAPS["P6"]
+    region = domain.problem.spec.region(counter)
+    held = _held(domain, _opened(domain), can)
+    x, y = se2_to_world((*region.center, region.yaw), *POCKET[0])
+    behind = State(
+        tuple(sorted({**dict(held.poses), can: ObjectPose.make(x, y, region.top, 0.0)}.items())),
+        held.open_doors,
+        held.robot,
+    )
+    assert trap_violations(domain.problem, (held, behind)) == (
+        f"step 1: {can} placed on {counter} with beef_grill on it",
+    )
+    assert trap_violations(domain.problem, (held, held)) == ()
 
 
 @pytest.mark.slow
@@ -177,9 +176,7 @@ def test_a_solve_puts_nothing_on_the_walled_counter_after_the_grill(
     assert code == 0
     record = json.loads(out.read_text())
     assert record["success"], record["termination"]
-    problem = load_problem(name)
-    report = replay_result_json(problem, record)
-    assert report.reached_goal, report.reason
-    assert trap_violations(problem, report.states) == []
-    last = [str(a.discrete) for a in report.actions][-1]
-    assert last == f"place(beef_grill, on, {TRAPS[name][0]})", "the grill goes last"
+    check = check_record(load_problem(name), record)
+    assert check.reached_goal
+    assert check.violations == ()
+    assert check.grill_last

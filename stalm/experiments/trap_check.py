@@ -1,0 +1,84 @@
+"""Does an executed plan respect the grill trap of P5 and P6 (paper §4.4, Figure 6)?
+
+The trap is a claim of the problems (their descriptions and docs/problems.md): with the grill
+on its goal counter, nothing else can be put there; the grill goes last. This checks it where
+a user meets it, on replayed solves: each record's plan is re-executed from the problem's
+initial state (:func:`~stalm.trial.replay.replay_result_json`, which trusts nothing else in
+the record) and every step that puts an object on the grill's goal counter while the grill
+stands on it is named. ``benchmarks/grill_trap.py`` runs it over experiment records.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from stalm.trial.replay import replay_result_json
+from stalm.world.problem import Problem
+from stalm.world.relations import at_position
+from stalm.world.state import State
+
+
+@dataclass(frozen=True)
+class TrapCheck:
+    """One replayed record: did it reach the goal, and which steps broke the trap."""
+
+    problem: str
+    seed: int | None
+    reached_goal: bool
+    grill_last: bool
+    violations: tuple[str, ...]
+
+
+def trap_counters(problem: Problem) -> dict[str, str]:
+    """Each grill of the problem and the region its goal puts it on."""
+    grills = {obj.name for obj in problem.spec.objects if obj.shape == "grill"}
+    return {g.obj: g.ref for g in problem.goal if g.obj in grills and g.direction == "on"}
+
+
+def trap_violations(problem: Problem, states: tuple[State, ...]) -> tuple[str, ...]:
+    """Each step of an executed plan (its states in order) that puts an object on a grill's
+    goal counter while that grill stands on it."""
+    spec = problem.spec
+    found = []
+    for grill, counter in trap_counters(problem).items():
+        for step, (before, after) in enumerate(itertools.pairwise(states), start=1):
+            placed = before.held.obj if before.held is not None else None
+            if placed is None or placed == grill or after.held is not None:
+                continue
+            if at_position(spec, after, placed, "on", counter) and at_position(
+                spec, after, grill, "on", counter
+            ):
+                found.append(f"step {step}: {placed} placed on {counter} with {grill} on it")
+    return tuple(found)
+
+
+def check_record(problem: Problem, record: dict[str, object]) -> TrapCheck:
+    """Replay a result record of ``problem`` and check its plan against the trap."""
+    report = replay_result_json(problem, record)
+    last = str(report.actions[-1].discrete) if report.actions else ""
+    grill_last = any(
+        last == f"place({grill}, on, {counter})"
+        for grill, counter in trap_counters(problem).items()
+    )
+    seed = record.get("seed")
+    return TrapCheck(
+        problem.name,
+        seed if isinstance(seed, int) else None,
+        report.reached_goal,
+        grill_last,
+        trap_violations(problem, report.states),
+    )
+
+
+def check_results(path: Path, problems: dict[str, Problem]) -> list[TrapCheck]:
+    """Every solved record of ``path`` (JSON lines) whose problem is in ``problems``."""
+    checks = []
+    for line in path.read_text().splitlines():
+        record = json.loads(line)
+        problem = problems.get(str(record.get("problem")))
+        if problem is not None and record.get("success"):
+            checks.append(check_record(problem, record))
+    return checks
