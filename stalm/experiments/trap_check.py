@@ -15,6 +15,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
+from stalm.domain.actions import Place
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import Problem
 from stalm.world.relations import at_position
@@ -58,10 +59,13 @@ def trap_violations(problem: Problem, states: tuple[State, ...]) -> tuple[str, .
 def check_record(problem: Problem, record: dict[str, object]) -> TrapCheck:
     """Replay a result record of ``problem`` and check its plan against the trap."""
     report = replay_result_json(problem, record)
-    last = str(report.actions[-1].discrete) if report.actions else ""
-    grill_last = any(
-        last == f"place({grill}, on, {counter})"
-        for grill, counter in trap_counters(problem).items()
+    last = report.actions[-1].discrete if report.actions else None
+    counters = trap_counters(problem)
+    # the last action puts a grill down on its goal counter ('on' it, or beside a can there)
+    grill_last = (
+        isinstance(last, Place)
+        and last.obj in counters
+        and at_position(problem.spec, report.states[-1], last.obj, "on", counters[last.obj])
     )
     seed = record.get("seed")
     return TrapCheck(
