@@ -7,13 +7,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 from PIL import Image
 
-from stalm.domain.actions import Open, Pick
 from stalm.viz.animate import FRAME_STRIDE, kept_frames, plan_motion, write_animation
 from tests.cli_runner import run_cli
+from tests.world.test_animation import two_p2_actions
 
 
 def test_kept_frames_are_the_first_one_in_a_stride_and_each_action_s_last() -> None:
@@ -22,23 +21,11 @@ def test_kept_frames_are_the_first_one_in_a_stride_and_each_action_s_last() -> N
     assert kept_frames(actions, 1) == frozenset(range(len(actions)))
 
 
-def _two_actions(domain):  # type: ignore[no-untyped-def]
-    rng = np.random.default_rng(2)
-    state = domain.problem.initial_state
-    pairs = []
-    for action in (Open("kitchen_door"), Pick("bottle1")):
-        drawn, outcome = domain.sample_and_step(state, action, rng)
-        assert drawn is not None and outcome.feasible
-        pairs.append((drawn, outcome.state))
-        state = outcome.state
-    return pairs
-
-
 def test_the_animation_renders_a_fraction_of_the_motion_at_its_size(
     domain_factory, tmp_path: Path
 ) -> None:
     domain = domain_factory("P2")
-    pairs = _two_actions(domain)
+    pairs = two_p2_actions(domain)
     start = domain.problem.initial_state
     motion = list(plan_motion(domain.sim, start, pairs))
     heard: list[tuple[int, int]] = []

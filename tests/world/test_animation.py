@@ -8,8 +8,8 @@ from stalm.domain.actions import Open, Pick
 from stalm.viz.animate import plan_frames, save_gif
 
 
-def test_a_plan_animates_to_a_gif(domain_factory, tmp_path: Path) -> None:
-    domain = domain_factory("P2")
+def two_p2_actions(domain):  # type: ignore[no-untyped-def]
+    """P2's door opened and bottle1 picked: (drawn action, state after it) for each."""
     rng = np.random.default_rng(2)
     state = domain.problem.initial_state
     pairs = []
@@ -18,6 +18,12 @@ def test_a_plan_animates_to_a_gif(domain_factory, tmp_path: Path) -> None:
         assert drawn is not None and outcome.feasible
         pairs.append((drawn, outcome.state))
         state = outcome.state
+    return pairs
+
+
+def test_a_plan_animates_to_a_gif(domain_factory, tmp_path: Path) -> None:
+    domain = domain_factory("P2")
+    pairs = two_p2_actions(domain)
     frames = plan_frames(domain.sim, domain.problem.initial_state, pairs, size=48)
     # the start, base motion, arm motion and the door swinging for each action
     assert len(frames) > 10
