@@ -89,6 +89,8 @@ class SolveProgress(TrialObserver):
         self.frames_done, self.frames_total = done, total
 
     def message(self, text: str) -> None:
+        """A planner's own words (a baseline's, or PDDLStream's, which send no structured
+        events): shown as the line itself before the trial starts, else at its end."""
         self.note = text
 
     # ------------------------------------------------------------------ the line
@@ -97,7 +99,7 @@ class SolveProgress(TrialObserver):
         if self.phase_name == "frames":
             return f"rendering the animation: frame {self.frames_done} of {self.frames_total}"
         if self.start is None:
-            return self.title
+            return self.note or self.title
         parts = [f"{self.problem} with {self.planner}", f"step {self.done + 1} of {self.horizon}"]
         doing = PHASE_WORDS.get(self.phase_name, self.phase_name or "starting")
         if self.phase_name == "predicates" and self.predicate_part:
@@ -112,6 +114,8 @@ class SolveProgress(TrialObserver):
             parts.append(f"{self.proposals} proposal{'s' if self.proposals != 1 else ''}")
         elapsed = time.monotonic() - self.start
         parts.append(f"{elapsed:.0f} s of {self.budget_s:.0f} s")
+        if self.note and not self.phase_name:
+            parts.append(self.note)
         return " · ".join(parts)
 
     def __rich__(self) -> RenderableType:

@@ -11,11 +11,11 @@ stands on it is named. ``benchmarks/grill_trap.py`` runs it over experiment reco
 from __future__ import annotations
 
 import itertools
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 from stalm.domain.actions import Place
+from stalm.experiments.results_log import read_records
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import Problem
 from stalm.world.relations import at_position
@@ -78,10 +78,10 @@ def check_record(problem: Problem, record: dict[str, object]) -> TrapCheck:
 
 
 def check_results(path: Path, problems: dict[str, Problem]) -> list[TrapCheck]:
-    """Every solved record of ``path`` (JSON lines) whose problem is in ``problems``."""
+    """Every solved record of ``path`` (an experiment's JSON lines; a retried trial's last
+    record) whose problem is in ``problems``."""
     checks = []
-    for line in path.read_text().splitlines():
-        record = json.loads(line)
+    for record in read_records(path).latest_by_key().values():
         problem = problems.get(str(record.get("problem")))
         if problem is not None and record.get("success"):
             checks.append(check_record(problem, record))

@@ -208,3 +208,13 @@ def test_a_solve_that_times_out_says_what_took_the_time(monkeypatch, capsys, tmp
     err = " ".join(capsys.readouterr().err.split())
     assert "timed out:" in err
     assert "try --set predicates.relevant_only=true" in err
+
+
+def test_a_planner_s_own_messages_show_on_the_line() -> None:
+    line = SolveProgress("P2 with pddlstream-adaptive")
+    assert line.line() == "P2 with pddlstream-adaptive"
+    line.message("pddlstream: searching the optimistic task")  # a planner with no trial events
+    assert line.line() == "pddlstream: searching the optimistic task"
+    line.started("saycan", "P2", 20, 300.0)
+    line.message("scoring 12 skills")
+    assert line.line().endswith("scoring 12 skills")
