@@ -7,6 +7,7 @@ reports backend, model, latency and token counts in a few seconds.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from typing import Annotated
@@ -149,11 +150,17 @@ def _check_constraint_styles(
     order = [configured] + [s for s in CONSTRAINT_STYLES if s != configured]
     answers: dict[str, list[LLMReply]] = {}
     refusals: list[ConstraintRefused] = []
+    window = request.deadline - time.monotonic() if request.deadline is not None else None
     for style in order:
+        # each style gets the whole timeout: a slow answer to the first must not leave the
+        # second none
+        styled = request
+        if window is not None:
+            styled = dataclasses.replace(request, deadline=time.monotonic() + window)
         with console.status(f"asking the model with the constraint as {style}..."):
             try:
                 answers[style] = backend.send(
-                    request,
+                    styled,
                     backend.model,
                     1,
                     request.seed,
@@ -164,11 +171,15 @@ def _check_constraint_styles(
                 refusals.append(refused)
                 console.print(f"[red]refused[/]  {shown(str(refused))}", highlight=False)
             except DeadlinePassed:
-                raise StalmError(f"{backend.url}: no answer within the timeout") from None
+                console.print(f"[red]no answer in time[/] {style}", highlight=False)
             else:
                 console.print(f"[green]accepted[/] {style}", highlight=False)
-    if not answers:
+    if not answers and len(refusals) == len(order):
         raise both_refused(backend.url, refusals[0], refusals[1])
+    if not answers:
+        raise StalmError(
+            f"{backend.url}: no answer within the timeout in any style it did not refuse"
+        )
     taken = configured if configured in answers else next(iter(answers))
     if taken == configured:
         console.print(f"this server takes the configured style, {configured}", highlight=False)
