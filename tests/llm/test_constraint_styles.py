@@ -97,7 +97,8 @@ def test_the_style_a_server_takes_is_kept_and_its_500s_are_retried_again(
 def test_a_server_that_takes_neither_style_is_one_error_saying_what_to_do(
     scripted_server: ScriptedHTTPServerDouble,
 ) -> None:
-    scripted_server.script = [ScriptedReply(status=500, body={"error": {"message": "no"}})]
+    refusal = {"error": {"message": "unsupported: response_format json_schema, grammar"}}
+    scripted_server.script = [ScriptedReply(status=500, body=refusal)]
     with pytest.raises(StalmError) as raised:
         _backend(scripted_server).complete(CONSTRAINED)
     message = str(raised.value)
@@ -141,3 +142,16 @@ def test_a_constrained_solve_against_such_a_server_switches_and_solves(monkeypat
     err = " ".join(capsys.readouterr().err.split())
     assert code == 0, err
     assert "warning:" in err and "STALM_LLM_CONSTRAINT_STYLE=gbnf" in err
+
+
+def test_a_500_that_names_no_constraint_is_a_server_failure_not_a_refusal(
+    scripted_server: ScriptedHTTPServerDouble,
+) -> None:
+    # a transient or unrelated 500 on the first constrained request keeps the retry policy
+    # and the configured style; it is not read as the server refusing json_schema
+    scripted_server.script = [ScriptedReply(status=500, body={"error": {"message": "busy"}})]
+    with pytest.raises(StalmError) as raised:
+        _backend(scripted_server).complete(CONSTRAINED)
+    assert "refused the output constraint" not in str(raised.value)
+    assert "HTTP 500" in str(raised.value)
+    assert all("grammar" not in request for request in scripted_server.requests)

@@ -27,6 +27,17 @@ a JSON schema; others: 400 or 422 to a field they do not know); 401/403/404/429 
 something else and keep their own handling."""
 
 
+CONSTRAINT_WORDS = ("schema", "response_format", "grammar", "gbnf")
+"""Words a refusal of the constraint names (llama.cpp: 'JSON schema conversion failed'); a 400
+or 500 whose message names none of them is some other failure and keeps its own handling."""
+
+
+def refuses_constraint(status: int, message: str) -> bool:
+    """Whether HTTP ``status`` with ``message`` is a server refusing the output constraint."""
+    text = message.lower()
+    return status in REFUSALS and any(word in text for word in CONSTRAINT_WORDS)
+
+
 def check_constraint_style(style: str) -> ConstraintStyle:
     """``style`` as a :data:`ConstraintStyle`, or a StalmError listing the valid ones."""
     if style not in CONSTRAINT_STYLES:

@@ -47,12 +47,12 @@ from stalm.llm.backends.chat_replies import chat_replies
 from stalm.llm.backends.constraint_styles import (
     CONSTRAINT_STYLE_ENV,
     CONSTRAINT_STYLES,
-    REFUSALS,
     ConstraintRefused,
     ConstraintStyle,
     both_refused,
     check_constraint_style,
     other_style,
+    refuses_constraint,
     switched_notice,
 )
 from stalm.llm.backends.retries import (
@@ -290,8 +290,8 @@ class OpenAICompatibleBackend:
         request, a refused constraint is sent once more in the other style, which the run
         then keeps, saying so in one line (:mod:`~stalm.llm.backends.constraint_styles`)."""
         style = self._constraint_style
-        if request.constraint is None or self._style_taken:
-            return self.send(request, model, n, seed, style)
+        if request.constraint is None or self._style_taken or self._is_openai:
+            return self.send(request, model, n, seed, style)  # OpenAI's API takes json_schema
         try:
             replies = self.send(request, model, n, seed, style, refusable=True)
         except ConstraintRefused as refused:
@@ -353,7 +353,7 @@ class OpenAICompatibleBackend:
                 ) from error
             except openai.APIStatusError as error:
                 status = error.status_code
-                if refusable and status in REFUSALS:
+                if refusable and refuses_constraint(status, str(error.message)):
                     raise ConstraintRefused(style, status, str(error.message)) from None
                 if status in RETRYABLE_STATUS or status >= 500:
                     last_problem = f"HTTP {status}: {error.message}"
