@@ -85,15 +85,11 @@ def proposer_label(result: PlanResult) -> str:
 
 def print_timeout_advice(result: PlanResult, problem: Problem, settings: RunSettings) -> None:
     """After a timeout: the phase that took the most of the time and the setting to try."""
+    from stalm.planners.registry import asks_model
     from stalm.trial.timeout_advice import timeout_advice
 
-    proposer = result.details.get("proposer")
-    advice = timeout_advice(
-        result.times,
-        settings,
-        len(problem.spec.objects),
-        proposer if isinstance(proposer, str) else None,
-    )
+    asked = asks_model(result.planner, settings)
+    advice = timeout_advice(result.times, settings, len(problem.spec.objects), asked)
     console.print(f"[yellow]timed out:[/] {shown(advice.text())}", highlight=False, soft_wrap=True)
 
 

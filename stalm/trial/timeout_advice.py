@@ -51,27 +51,26 @@ class TimeoutAdvice:
 
 
 def timeout_advice(
-    times: PhaseTimes, settings: RunSettings, objects: int, proposer: str | None = None
+    times: PhaseTimes, settings: RunSettings, objects: int, asks_model: bool | None = None
 ) -> TimeoutAdvice:
     """The advice for a trial that timed out after spending ``times``, run with ``settings``
-    on a scene of ``objects`` movable objects; ``proposer`` is the result's
-    ``details["proposer"]`` (None: read from ``settings``)."""
+    on a scene of ``objects`` movable objects; ``asks_model``: whether the planner asked a
+    language model (:func:`stalm.planners.registry.asks_model`; None: read from ``settings``'s
+    proposer section)."""
     phases = times.phases()
     phase = max(phases, key=lambda name: phases[name])
     seconds = phases[phase]
     total = times.total if times.total > 0 else sum(phases.values())
     share = seconds / total if total > 0 else 0.0
-    setting, why = _setting_for(phase, settings, objects, proposer)
+    setting, why = _setting_for(phase, settings, objects, asks_model)
     return TimeoutAdvice(phase, seconds, share, setting, why)
 
 
 def _setting_for(
-    phase: str, settings: RunSettings, objects: int, proposer: str | None
+    phase: str, settings: RunSettings, objects: int, asks_model: bool | None
 ) -> tuple[str, str]:
     predicates, section = settings.predicates, settings.proposer
-    symbolic = (proposer or "").startswith("symbolic") or (
-        proposer is None and not section.asks_model()
-    )
+    symbolic = not (section.asks_model() if asks_model is None else asks_model)
     relevant = (
         "--set predicates.relevant_only=true",
         "occlusions only for the objects a plan must touch: a scene of many objects costs "

@@ -176,7 +176,7 @@ def test_predicates_that_took_the_time_ask_for_relevant_only() -> None:
 
 def test_fast_downward_that_took_the_time_on_many_objects_asks_for_relevant_only() -> None:
     times = PhaseTimes(predicates=60.0, proposer=230.0, total=300.0)
-    advice = timeout_advice(times, RunSettings(), 120, "symbolic:fast-downward")
+    advice = timeout_advice(times, RunSettings(), 120, asks_model=False)
     assert advice.phase == "proposer"
     assert advice.setting == "--set predicates.relevant_only=true"
 
@@ -190,12 +190,12 @@ def test_with_relevant_only_on_the_advice_moves_on() -> None:
         "test",
     )
     downward = PhaseTimes(proposer=200.0, total=300.0)
-    assert timeout_advice(downward, settings, 120, "symbolic:fast-downward").setting == (
+    assert timeout_advice(downward, settings, 120, asks_model=False).setting == (
         "--set proposer.needed_objects_only=true"
     )
     predicates = PhaseTimes(predicates=200.0, total=300.0)
     assert timeout_advice(predicates, settings, 120).setting == "--set predicates.workers=N"
-    model = timeout_advice(downward, settings, 120, "llm:openai:gpt-4")
+    model = timeout_advice(downward, settings, 120, asks_model=True)
     assert "--batch" in model.setting
 
 
@@ -218,3 +218,14 @@ def test_a_planner_s_own_messages_show_on_the_line() -> None:
     line.started("saycan", "P2", 20, 300.0)
     line.message("scoring 12 skills")
     assert line.line().endswith("scoring 12 skills")
+
+
+def test_the_noisy_proposer_over_fast_downward_is_advised_as_fast_downward() -> None:
+    from stalm.planners.registry import asks_model
+    from stalm.settings.io import with_overrides
+
+    settings = with_overrides(RunSettings(), ["proposer.kind=noisy"])
+    asked = asks_model("stalm", settings)
+    assert asked is False  # the noisy proposer corrupts Fast Downward's plans: no model
+    advice = timeout_advice(PhaseTimes(proposer=230.0, total=300.0), settings, 120, asked)
+    assert "model" not in advice.why and "--batch" not in advice.setting
