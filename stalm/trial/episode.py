@@ -225,13 +225,11 @@ class Episode:
 
     def execute(self, domain: Domain, action: Action) -> None:
         """Apply a sampled action that ψ found feasible in the current state."""
-        self.observer.phase("execution")
-        tick = time.monotonic()
-        outcome = domain.step(self.state, action)
+        with self.clock.timed("execution"):
+            outcome = domain.step(self.state, action)
         self.state = outcome.state
         self.executed.append(action)
         self.states.append(self.state)
-        self.clock.execution += time.monotonic() - tick
 
     def finish(
         self,
