@@ -16,12 +16,13 @@ context they were learned in. Here each failed step becomes a :class:`FailedStep
   (:func:`stalm.llm.pddl.domain_pddl` with ``feedback``);
 * **text** for a language model: the plan, the failed step and the transition's reason, in the
   Iterative-Replanning feedback's words (:mod:`stalm.llm.feedback_prompt`);
-* a **rule** for a placement that found no free spot beside movable objects on its region
-  (P5's cans after the grill): ``Forbids``/``Needs`` facts rule it out while those objects
-  are on the region, wherever exactly. That is a generalisation from a few draws of their
-  poses: a placement Concretize or the search grounds while the rule's objects are on the
-  region refutes it (:mod:`stalm.proposers.feedback_memory`), after which only what was
-  observed (the failure at those exact poses, ``exact``) is kept. Rules that contradict each
+* a **rule** for a placement that found no free spot beside movable objects on its region,
+  or whose arm hit such objects on its way in (P5's cans after the grill): ``Forbids``/
+  ``Needs`` facts rule it out while those objects are on the region, wherever exactly. That
+  is a generalisation from a few draws of their poses: a placement Concretize or the search
+  grounds while the rule's objects are on the region refutes it
+  (:mod:`stalm.proposers.feedback_memory`), after which only what was observed (the failure
+  at those exact poses, ``exact``) is kept. Rules that contradict each
   other and leave no plan are given up by the proposer in a random order;
 * a **rule** for a pick that collided with movable objects on the region its object rests on
   (P5's coke behind the grill): ``ForbidsPick``/``Needs`` facts rule it out while those
@@ -55,6 +56,9 @@ from stalm.world.relations import region_of
 from stalm.world.state import ObjectPose, State
 
 FAILED_PICK = "PickFailed"
+CROWDING_KINDS = frozenset({"no_placement", "arm_collision"})
+"""The placement failures that blame the objects on the target region as a whole: no free
+spot beside them, or the arm hitting them on its way in."""
 FAILED_PLACE = "PlaceFailed"
 
 
@@ -192,9 +196,11 @@ def _facts_and_support(
 def _crowded_placement(
     problem: Problem, state: State, action: DiscreteAction, why: Infeasibility
 ) -> tuple[tuple[str, str, str, str] | None, tuple[str, ...]]:
-    """A placement with no free spot whose samples hit movable objects on the region: the
-    symbolic rule 'not there while those objects are there' (P5's cans after the grill)."""
-    if not isinstance(action, Place) or why.kind != "no_placement":
+    """A placement with no free spot whose samples hit movable objects on the region, or whose
+    arm hit them (reaching past them into the region): the symbolic rule 'not there while
+    those objects are there' (P5's cans after the grill, which stands in front of the walled
+    pocket and is too tall to reach over)."""
+    if not isinstance(action, Place) or why.kind not in CROWDING_KINDS:
         return None, ()
     spec = problem.spec
     region = action.ref if action.direction == "on" else region_of(spec, state, action.ref)

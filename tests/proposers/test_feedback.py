@@ -208,6 +208,42 @@ def test_contradicting_rules_are_given_up_in_orders_drawn_from_the_seed(
     assert again.plans == proposal.plans
 
 
+def test_an_arm_blocked_by_what_stands_on_the_region_is_the_crowding_rule(
+    problems, initial_literals
+) -> None:
+    """P5's binding trap: with the grill at the front of counter1, placing a can there fails
+    with the arm hitting the grill (it is too tall to reach over), not for want of a spot.
+    That failure says the same as a crowded region: not there while the grill is there,
+    wherever exactly. Scoped to the grill's exact pose, as an occlusion, it never applied
+    where the proposer planned from (the grill still off the counter), and Fast Downward put
+    the grill first at every query."""
+    problem = problems["P5"]
+    state = problem.initial_state.with_changes(poses={"beef_grill": P5_FRONT})
+    why = Infeasibility("arm_collision", "placing 'coke' collides", ("beef_grill",))
+    plan = (Pick("coke"), Place("coke", "on", "counter1"))
+    (learned,) = failed_steps(problem, [_failed_plan(state, plan, 1, why)])
+    assert learned.forbids == ("coke", "on", "counter1", "counter1")
+    assert learned.besides == ("beef_grill",)
+    assert learned.exact is not None
+    assert learned.exact.facts == (
+        GroundLiteral("PlaceOccludedBy", ("coke", "on", "counter1", "beef_grill")),
+    )
+    memory = FeedbackMemory.empty()
+    memory.learn([learned])
+    proposal = SymbolicProposer().propose(
+        problem,
+        problem.initial_state,
+        initial_literals("P5"),
+        3,
+        seed=0,
+        feedback=memory.holding_in(problem.initial_state),
+    )
+    assert proposal.plans
+    for task_plan in proposal.plans:
+        on_counter = _last_placed_on(task_plan, "counter1")
+        assert on_counter.index("coke") < on_counter.index("beef_grill"), task_plan
+
+
 def test_refuted_rules_leave_the_contradiction_to_the_true_ones(problems, initial_literals) -> None:
     """The grill grounded on counter1 beside a can refutes both 'no grill after a can' rules:
     the two left (no can after the grill) make every plan put the grill last."""
