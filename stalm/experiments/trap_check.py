@@ -77,6 +77,43 @@ def check_record(problem: Problem, record: dict[str, object]) -> TrapCheck:
     )
 
 
+@dataclass(frozen=True)
+class FirstProposal:
+    """The trap's fidelity in one trial (paper §4.4, Figure 5's "lack of 3D understanding"):
+    of the task plans in the first proposal, how many put a grill on its goal counter before
+    another object goes there, and how many of those Concretize found infeasible."""
+
+    plans: int
+    grill_first: int
+    grill_first_failed: int
+
+
+def first_proposal(problem: Problem, record: dict[str, object]) -> FirstProposal | None:
+    """The first proposal's plans of a record's step log (None when it logged none)."""
+    details = record.get("details")
+    log = details.get("step_log") if isinstance(details, dict) else None
+    if not isinstance(log, list) or not log or not log[0].get("proposals"):
+        return None
+    plans = log[0]["proposals"][0].get("plans") or []
+    counters = trap_counters(problem)
+    first = [plan for plan in plans if _grill_first(plan.get("actions") or [], counters)]
+    failed = [plan for plan in first if not plan.get("reached_goal")]
+    return FirstProposal(len(plans), len(first), len(failed))
+
+
+def _grill_first(actions: list[list[str]], counters: dict[str, str]) -> bool:
+    """Does a task plan (actions as lists of words) put a grill on its goal counter and then
+    another object on that counter?"""
+    for grill, counter in counters.items():
+        grill_at = [i for i, a in enumerate(actions) if a == ["place", grill, "on", counter]]
+        if grill_at and any(
+            a[:1] == ["place"] and a[1] != grill and a[2:] == ["on", counter]
+            for a in actions[grill_at[0] + 1 :]
+        ):
+            return True
+    return False
+
+
 def check_results(path: Path, problems: dict[str, Problem]) -> list[TrapCheck]:
     """Every solved record of ``path`` (an experiment's JSON lines; a retried trial's last
     record) whose problem is in ``problems``."""
