@@ -25,14 +25,6 @@ an object standing on a counter (touching it, overlapping by nothing) is no cand
 
 
 @numba.njit(cache=True)
-def transform_point(frame: np.ndarray, point: np.ndarray, out: np.ndarray) -> None:
-    for i in range(3):
-        out[i] = (
-            frame[i, 0] * point[0] + frame[i, 1] * point[1] + frame[i, 2] * point[2] + frame[i, 3]
-        )
-
-
-@numba.njit(cache=True)
 def box_aabb(box: np.ndarray, low: np.ndarray, high: np.ndarray) -> None:
     for i in range(3):
         reach = 0.0
