@@ -42,22 +42,10 @@ from stalm.predicates.literals import GroundLiteral
 from stalm.settings.tree import NOISE_KINDS, NoiseKind
 from stalm.world.problem import Problem
 
-NoiseLabel = Literal[
-    "clean",
-    "inapplicable",
-    "precondition_violation",
-    "lack_of_3d_understanding",
-    "partially_achieved_goal",
-]
+NoiseLabel = Literal["clean", "inapplicable", NoiseKind]
 """What the noisy proposer did to one plan: nothing (``clean``: not drawn for corruption),
 nothing although drawn (``inapplicable``: no kind applies to it), or the kind it injected."""
-NOISE_LABELS: tuple[NoiseLabel, ...] = (
-    "clean",
-    "inapplicable",
-    "precondition_violation",
-    "lack_of_3d_understanding",
-    "partially_achieved_goal",
-)
+NOISE_LABELS: tuple[NoiseLabel, ...] = ("clean", "inapplicable", *NOISE_KINDS)
 
 LARGER_FOOTPRINT = 1.5
 """How much larger (footprint area) an object must be than the first one a plan puts into its

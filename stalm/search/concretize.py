@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, get_args
 
 import numpy as np
 
@@ -39,20 +39,13 @@ from stalm.search.search_mdp import SearchMDP
 from stalm.search.transition import PRECONDITION, CountingMDP, Kappa, WorkCounts, apply, draw
 from stalm.world.state import State
 
-FailureKind = Literal[
-    "precondition_violation",
-    "lack_of_3d_understanding",
-    "partially_achieved_goal",
-    "unparseable",
-    "no_plan",
+Figure5Kind = Literal[
+    "precondition_violation", "lack_of_3d_understanding", "partially_achieved_goal"
 ]
-FAILURE_KINDS: tuple[FailureKind, ...] = (
-    "precondition_violation",
-    "lack_of_3d_understanding",
-    "partially_achieved_goal",
-    "unparseable",
-    "no_plan",
-)
+"""Figure 5's three kinds of task-plan error (the noisy proposer injects the same three)."""
+FIGURE5_KINDS: tuple[Figure5Kind, ...] = get_args(Figure5Kind)
+FailureKind = Literal[Figure5Kind, "unparseable", "no_plan"]
+FAILURE_KINDS: tuple[FailureKind, ...] = (*FIGURE5_KINDS, "unparseable", "no_plan")
 
 
 @dataclass(frozen=True)

@@ -31,18 +31,15 @@ from stalm.llm.cache import CacheMode
 from stalm.llm.prompt import PromptOptions
 from stalm.predicates.samples import PredicateSettings
 from stalm.search import SearchSettings
+from stalm.search.concretize import FIGURE5_KINDS, Figure5Kind
 from stalm.world.problem import Problem
 
 ExecutionRule = Literal["progress", "best_q"]
 ProposerKind = Literal["llm", "symbolic", "noisy"]
 PROPOSER_KINDS: tuple[str, ...] = ("llm", "symbolic", "noisy")
 InnerProposer = Literal["symbolic", "llm"]
-NoiseKind = Literal["precondition_violation", "lack_of_3d_understanding", "partially_achieved_goal"]
-NOISE_KINDS: tuple[NoiseKind, ...] = (
-    "precondition_violation",
-    "lack_of_3d_understanding",
-    "partially_achieved_goal",
-)
+NoiseKind = Figure5Kind
+NOISE_KINDS: tuple[NoiseKind, ...] = FIGURE5_KINDS
 """Figure 5's three kinds of task-plan error, in the order of ``proposer.noise.weights``."""
 
 DEFAULT_SIMS: dict[str, int] = {
