@@ -171,5 +171,5 @@ def _problem_entry(entry: object, index: Path) -> SuiteProblem:
 def plain_name(name: str, index: Path) -> str:
     """A file of the suite's own folder: a name, never a path elsewhere."""
     if Path(name).name != name or name in ("", ".", ".."):
-        raise StalmError(f"{index}: {name!r} is not a file name in the suite's folder")
+        raise StalmError(f"{excerpt(name)} is not a file name in the suite's folder")
     return name

@@ -273,3 +273,66 @@ def test_the_problem_and_its_witness_are_written_together_or_neither(tmp_path: P
     write_generated(generated, out)
     assert out.read_text() == generated.text
     assert json.loads(witness_path(out).read_text())["problem"] == "pair"
+
+
+def test_suite_files_no_index_names_are_refused_before_generating(
+    monkeypatch, capsys, tmp_path: Path, no_generation
+) -> None:
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "s-000.yaml").write_text("someone's problem\n")
+    code = run_cli(monkeypatch, "generate", "--suite", "s", *SMALL, "-o", str(tmp_path / "s"))
+    assert code == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert "s-000.yaml" in line and "no suite index names it" in line
+    assert (tmp_path / "s" / "s-000.yaml").read_text() == "someone's problem\n"
+
+
+def test_an_unreadable_index_is_refused_and_replace_goes_with_suite(
+    monkeypatch, capsys, tmp_path: Path, no_generation
+) -> None:
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / INDEX).write_text("{not json")
+    code = run_cli(monkeypatch, "generate", "--suite", "s", *SMALL, "-o", str(tmp_path / "s"))
+    assert code == 2
+    assert "--replace" in one_error_line(capsys.readouterr().err)
+    code = run_cli(monkeypatch, "generate", "--replace", "-o", str(tmp_path / "p.yaml"))
+    assert code == 2
+    assert "--replace goes with --suite" in one_error_line(capsys.readouterr().err)
+
+
+def test_a_problem_edited_between_reading_the_index_and_the_run_is_refused(
+    tmp_path: Path, made: Path
+) -> None:
+    from stalm.experiments.suites import trial_specs
+
+    folder = _copy(made, tmp_path)
+    plan = build_plan("scale", suite=folder, trials=1, planners=("uct",))
+    with (folder / "a-000.yaml").open("a") as handle:
+        handle.write("# edited after the check\n")
+    with pytest.raises(StalmError, match="differs from the suite's index"):
+        trial_specs(plan)
+
+
+def test_a_budget_beyond_what_a_record_holds_is_refused(made: Path) -> None:
+    from stalm.experiments.suites import trial_specs
+
+    plan = build_plan("scale", suite=made, trials=1, planners=("uct",), time_budget_s=2e7)
+    with pytest.raises(StalmError, match="more than a record holds"):
+        trial_specs(plan)
+
+
+def test_a_suite_under_a_file_or_without_problems_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "plain").write_text("x")
+    with pytest.raises(StalmError, match="is a file, not a folder"):
+        generate_suite("s", (6,), 1, 0, tmp_path / "plain" / "s", Knobs(6, 1, 1))
+    with pytest.raises(StalmError, match="--per-size of at least 1"):
+        generate_suite("s", (6,), 0, 0, tmp_path / "s", Knobs(6, 1, 1))
+
+
+def test_write_together_removes_a_new_file_when_its_partner_fails(tmp_path: Path) -> None:
+    from stalm.files import write_together
+
+    (tmp_path / "b.json").mkdir()
+    with pytest.raises(OSError):
+        write_together([(tmp_path / "a.yaml", "a\n"), (tmp_path / "b.json", "{}\n")])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.json"]  # no a.yaml, no temporary
