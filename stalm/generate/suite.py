@@ -125,7 +125,7 @@ def generate_suite(
     kept = _replace_old(folder) if replace else _resumable(folder, made, planned)
     folder.mkdir(parents=True, exist_ok=True)
     problems: list[SuiteProblem] = []
-    _write_index(made, problems, complete=False)
+    _write_index(made, [kept[p.file] for p in planned if p.file in kept], complete=False)
     for index, plan in enumerate(planned):
         if plan.file in kept:
             problems.append(kept[plan.file])
