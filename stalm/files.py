@@ -24,7 +24,7 @@ import os
 import reprlib
 import secrets
 import stat
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -203,6 +203,43 @@ def write_replacing(path: Path, data: str | bytes) -> None:
         handle.write(payload)
         handle.flush()
         os.fsync(handle.fileno())
+
+
+def write_together(files: Sequence[tuple[Path, str]]) -> None:
+    """Write every ``(path, text)`` of ``files`` (UTF-8), all or none: each is first written
+    whole beside its path, then renamed into place; should a rename fail (a folder where the
+    file goes, a full disk), the files already renamed are put back as they were (an old file
+    restored, a new one removed) and the error is raised. Files that belong together (a
+    problem and its witness) are never left one without the other."""
+    staged: list[tuple[Path, Path]] = []
+    swapped: list[tuple[Path, Path | None]] = []  # (path, where its old file waits, or None)
+    try:
+        for path, text in files:
+            temp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.partial")
+            staged.append((temp, path))
+            with temp.open("xb") as handle:
+                handle.write(text.encode("utf-8"))
+                handle.flush()
+                os.fsync(handle.fileno())
+        for temp, path in staged:
+            backup = None
+            if path.is_file():
+                backup = path.with_name(f".{path.name}.{secrets.token_hex(4)}.old")
+                os.replace(path, backup)
+            swapped.append((path, backup))
+            os.replace(temp, path)
+    except BaseException:
+        for path, backup in reversed(swapped):
+            if backup is not None:
+                os.replace(backup, path)
+            elif path.is_file():
+                path.unlink()
+        for temp, _ in staged:
+            temp.unlink(missing_ok=True)
+        raise
+    for _, backup in swapped:
+        if backup is not None:
+            backup.unlink(missing_ok=True)
 
 
 def read_json_file(path: Path, what: str, *, finite: bool = False) -> Any:

@@ -11,6 +11,9 @@ from rich.console import Console
 from rich.table import Table
 
 from stalm.cli.display import shown
+from stalm.cli.paths import check_output_file
+from stalm.errors import StalmError
+from stalm.files import write_replacing
 
 bench_app = typer.Typer(
     help="Benchmarks: speed figures of the world, predicates, IK, LLM and search."
@@ -18,10 +21,33 @@ bench_app = typer.Typer(
 console = Console()
 
 
+def _check(seed: int, json_out: Path | None, **counts: int) -> None:
+    """Arguments a benchmark cannot run with, refused before it starts as one StalmError
+    naming the option: a seed numpy refuses, a count below one (no targets: an IndexError; no
+    attempts: an empty table), a ``--json`` that cannot be written (found only after the run,
+    its figures lost)."""
+    from stalm.trial.result import check_seed
+
+    check_seed(seed, "--seed")
+    for option, count in counts.items():
+        if count < 1:
+            raise StalmError(f"--{option} must be at least 1, got {count}")
+    if json_out is not None:
+        check_output_file(json_out, "--json")
+
+
+def _write_rows(json_out: Path | None, rows: list[dict[str, object]]) -> None:
+    """The rows as JSON at ``json_out`` (its folders made), all or nothing."""
+    if json_out is not None:
+        write_replacing(json_out, json.dumps(rows, indent=2))
+
+
 @bench_app.command("world")
 def bench_world(
     problems: Annotated[list[str] | None, typer.Argument(help="Problems (default P1..P6).")] = None,
-    attempts: Annotated[int, typer.Option(help="Attempts per operator per problem.")] = 60,
+    attempts: Annotated[
+        int, typer.Option(help="Attempts per operator per problem (at least 1).")
+    ] = 60,
     seed: Annotated[int, typer.Option(help="Seed of the random walk.")] = 0,
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Also write the rows as JSON.")
@@ -30,6 +56,7 @@ def bench_world(
     """Median and p90 time of one PICK, PLACE and OPEN attempt; collision checks per second."""
     from stalm.experiments.bench_world import run
 
+    _check(seed, json_out, attempts=attempts)
     names = problems or ["P1", "P2", "P3", "P4", "P5", "P6"]
     table = Table(title=f"one operator attempt ({attempts} per operator), ms")
     for column in (
@@ -71,8 +98,7 @@ def bench_world(
 
         run(names, attempts, seed, report, progress=lambda m: status.update(shown(m)))
     console.print(table)
-    if json_out is not None:
-        json_out.write_text(json.dumps(rows, indent=2))
+    _write_rows(json_out, rows)
 
 
 @bench_app.command("predicates")
@@ -94,6 +120,7 @@ def bench_predicates(
     relevance-limited one, and the cached updates after an OPEN, a PICK and a PLACE."""
     from stalm.experiments.bench_predicates import default_problems, run
 
+    _check(seed, json_out)
     names = problems or default_problems()
     table = Table(title="predicates: batched engine / PyBullet reference (s)")
     for column in (
@@ -148,14 +175,13 @@ def bench_predicates(
 
         run(names, seed, report, workers)
     console.print(table)
-    if json_out is not None:
-        json_out.write_text(json.dumps(rows, indent=2))
+    _write_rows(json_out, rows)
 
 
 @bench_app.command("ik")
 def bench_ik(
     problems: Annotated[list[str] | None, typer.Argument(help="Problems (default P1..P6).")] = None,
-    targets: Annotated[int, typer.Option(help="Reachable targets per problem.")] = 200,
+    targets: Annotated[int, typer.Option(help="Reachable targets per problem (at least 1).")] = 200,
     seed: Annotated[int, typer.Option(help="Seed of the targets and the IK restarts.")] = 0,
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Also write the rows as JSON.")
@@ -164,6 +190,7 @@ def bench_ik(
     """The compiled IK beside PyBullet's own on the same targets: time per attempt, reached."""
     from stalm.experiments.bench_ik import run
 
+    _check(seed, json_out, targets=targets)
     names = problems or ["P1", "P2", "P3", "P4", "P5", "P6"]
     table = Table(title="IK: compiled / PyBullet's (the reference)")
     for column in ("problem", "targets", "us per attempt", "reached"):
@@ -182,19 +209,21 @@ def bench_ik(
     with console.status("benchmarking IK..."):
         rows = run(names, targets, seed, report)
     console.print(table)
-    if json_out is not None:
-        json_out.write_text(json.dumps(rows, indent=2))
+    _write_rows(json_out, rows)
 
 
 @bench_app.command("search")
 def bench_search(
     problems: Annotated[list[str] | None, typer.Argument(help="Problems (default P1..P6).")] = None,
-    sims: Annotated[int, typer.Option(help="Simulations of plain UCT per problem.")] = 30,
+    sims: Annotated[
+        int, typer.Option(help="Simulations of plain UCT per problem (at least 1).")
+    ] = 30,
     seed: Annotated[int, typer.Option(help="Seed of the search.")] = 0,
 ) -> None:
     """Simulations and T calls per second, and Concretize time for a 13-step plan."""
     from stalm.experiments.bench_search import bench_concretize, run
 
+    _check(seed, None, sims=sims)
     names = problems or ["P1", "P2", "P3", "P4", "P5", "P6"]
     table = Table(title=f"plain UCT from the initial state, {sims} simulations")
     for column in ("problem", "seconds", "simulations/s", "T calls/s", "psi draws/s"):

@@ -298,6 +298,8 @@ def _report(paths: list[Path], out_dir: Path, name: str, *, paper: bool) -> None
     if not records:
         raise StalmError(f"no trial records in {', '.join(str(p) for p in paths)}")
     text, files = write_report(records, out_dir, name=name, paper=paper)
+    for note in files.left_out:
+        console.print(f"[yellow]warning:[/] {shown(note)}", highlight=False, soft_wrap=True)
     out.print(printable(text), highlight=False, markup=False, soft_wrap=True)
     written = [files.markdown, files.csv, *files.plots]
     console.print("wrote " + ", ".join(shown(p) for p in written), highlight=False)

@@ -9,6 +9,7 @@ import typer
 from rich.console import Console
 
 from stalm.cli.display import shown
+from stalm.cli.paths import check_output_file
 from stalm.errors import StalmError
 
 commands = typer.Typer()
@@ -67,16 +68,31 @@ def generate_command(
     per_size: Annotated[
         int, typer.Option(help="With --suite: problems per size (at least 1).")
     ] = 20,
+    replace: Annotated[
+        bool,
+        typer.Option(
+            "--replace",
+            help="With --suite: replace the suite the folder holds (its files and index) "
+            "whole; without it a folder holding another suite is refused.",
+        ),
+    ] = False,
 ) -> None:
     """Write a solvable problem (or a suite): a scene, objects behind chains of occluders, a
     goal, and a witness plan grounded and replayed in the simulator."""
     from stalm.generate.arrange import Knobs
     from stalm.generate.problem_maker import generate_problem, problem_name
-    from stalm.generate.suite import generate_suite, write_generated
+    from stalm.generate.suite import generate_suite, witness_path, write_generated
+    from stalm.generate.suite_index import check_suite_name
 
     if door not in ("closed", "open"):
         raise StalmError(f"--door must be 'closed' or 'open', got {door!r}")
+    if replace and suite is None:
+        raise StalmError("--replace goes with --suite (one problem's files are always replaced)")
     if suite is not None:
+        check_suite_name(suite)
+        if out.exists() and not out.is_dir():
+            raise StalmError(f"-o {out}: is a file; with --suite, -o names a folder")
+        check_output_file(out / "index.json", "-o")
         counts = _sizes(sizes)
         knobs = Knobs(max(counts), goals, occlusion_depth, door == "closed", trap)
         with console.status("generating the suite...") as status:
@@ -89,11 +105,14 @@ def generate_command(
                 knobs,
                 progress=lambda message: status.update(shown(message)),
                 layout=layout,
+                replace=replace,
             )
         typer.echo(f"wrote {len(made.problems)} problems and {out / 'index.json'}")
         return
     if out.suffix not in (".yaml", ".yml"):
         raise StalmError(f"-o {out}: a problem file ends in .yaml")
+    check_output_file(out, "-o")
+    check_output_file(witness_path(out), "-o (its witness)")
     knobs = Knobs(objects, goals, occlusion_depth, door == "closed", trap)
     with console.status("generating (grounding the witness in the simulator)..."):
         generated = generate_problem(

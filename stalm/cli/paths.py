@@ -26,10 +26,22 @@ def check_output_file(path: Path, option: str) -> None:
         ancestor = ancestor.parent
     if not ancestor.is_dir():
         raise StalmError(f"{option} {path}: {ancestor} is a file, not a folder")
-    if not os.access(ancestor, os.W_OK | os.X_OK):
+    if not os.access(ancestor, os.W_OK | os.X_OK) or not _can_create_in(ancestor):
         raise StalmError(f"{option} {path}: cannot write in {ancestor}")
     if path.exists() and not os.access(path, os.W_OK):
         raise StalmError(f"{option} {path}: the file is not writable")
+
+
+def _can_create_in(folder: Path) -> bool:
+    """Can a file be made in ``folder``? Tried, not inferred from permission bits: they do not
+    stop root, nor tell of a read-only file system or a kernel folder such as ``/proc``."""
+    try:
+        handle, name = tempfile.mkstemp(prefix=".stalm-write-check-", dir=folder)
+    except OSError:
+        return False
+    os.close(handle)
+    Path(name).unlink(missing_ok=True)
+    return True
 
 
 def write_or_fall_back(text: str, path: Path, stem: str) -> tuple[Path, str | None]:

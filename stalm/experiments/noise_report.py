@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from stalm.experiments.markdown_cells import cell as markdown_cell
 from stalm.planners.registry import PROPOSING
 from stalm.search.concretize import FAILURE_KINDS
 from stalm.settings.tree import NOISE_KINDS
@@ -74,7 +75,7 @@ def markdown_confusion(table: dict[str, dict[str, int]]) -> str:
     seen = {c for columns in table.values() for c in columns}
     columns = [c for c in CLASSIFIED_COLUMNS if c in seen or c in NOISE_KINDS]
     columns += sorted(c for c in seen if c not in columns)
-    head = " | ".join(c.replace("_", " ") for c in columns)
+    head = " | ".join(markdown_cell(c.replace("_", " ")) for c in columns)
     lines = [f"| injected \\ classified | {head} | plans | same kind |"]
     lines.append("| --- | " + " | ".join("---" for _ in columns) + " | --- | --- |")
     for row in rows:
@@ -82,7 +83,7 @@ def markdown_confusion(table: dict[str, dict[str, int]]) -> str:
         total = sum(counts.values())
         same = f"{counts.get(row, 0) / total:.2f}" if row in NOISE_KINDS and total else "–"
         cells = " | ".join(str(counts.get(c, 0)) for c in columns)
-        lines.append(f"| {row.replace('_', ' ')} | {cells} | {total} | {same} |")
+        lines.append(f"| {markdown_cell(row.replace('_', ' '))} | {cells} | {total} | {same} |")
     return "\n".join(lines) + "\n"
 
 
@@ -145,7 +146,9 @@ def markdown_curve(data: Curve) -> str:
     """Success rate (successes/trials) per series and rate, a column per problem, then the
     level rows; and the share of plans the noisy proposer corrupted at each rate."""
     problems = data.problems
-    lines = ["| Row | Error rate | " + " | ".join(problems) + " | plans corrupted |"]
+    lines = [
+        "| Row | Error rate | " + " | ".join(map(markdown_cell, problems)) + " | plans corrupted |"
+    ]
     lines.append("| --- | --- | " + " | ".join("---" for _ in problems) + " | --- |")
     for series in data.series:
         for rate in data.rates:
@@ -155,10 +158,12 @@ def markdown_curve(data: Curve) -> str:
             texts = [_rate_text(cell) for cell in cells]
             done, plans = data.corrupted.get((series, rate), (0, 0))
             share = f"{done / plans:.2f} of {plans}" if plans else "–"
-            lines.append(f"| {series} | {rate:g} | " + " | ".join(texts) + f" | {share} |")
+            lines.append(
+                f"| {markdown_cell(series)} | {rate:g} | " + " | ".join(texts) + f" | {share} |"
+            )
     for row in dict.fromkeys(r for r, _ in data.levels):
         texts = [_rate_text(data.levels.get((row, p))) for p in problems]
-        lines.append(f"| {row} | – | " + " | ".join(texts) + " | – |")
+        lines.append(f"| {markdown_cell(row)} | – | " + " | ".join(texts) + " | – |")
     return "\n".join(lines) + "\n"
 
 

@@ -21,6 +21,7 @@ from decimal import ROUND_HALF_UP, Decimal
 from pathlib import Path
 from typing import Any
 
+from stalm.experiments.markdown_cells import cell as markdown_cell
 from stalm.experiments.noise_report import (
     confusion,
     curve,
@@ -30,6 +31,7 @@ from stalm.experiments.noise_report import (
     plot_curve,
 )
 from stalm.experiments.paper_tables import TABLE2
+from stalm.experiments.problem_versions import newest_problem_versions
 from stalm.experiments.scale_report import has_sizes, markdown_scale, plot_scale, scale_cells
 from stalm.search.concretize import FAILURE_KINDS
 from stalm.settings.io import dotted
@@ -160,7 +162,7 @@ def markdown_table(table: Table, *, paper: bool = False) -> str:
     With ``paper``, rows whose label is a Table 2 planner get the paper's numbers beside
     ours as ``ours (paper)``.
     """
-    head = "| Method | Metric | " + " | ".join(table.problems) + " |"
+    head = "| Method | Metric | " + " | ".join(map(markdown_cell, table.problems)) + " |"
     lines = [head, "| --- | --- | " + " | ".join("---" for _ in table.problems) + " |"]
     for row in table.rows:
         rates, times = [], []
@@ -181,7 +183,7 @@ def markdown_table(table: Table, *, paper: bool = False) -> str:
                 time += f" [{'t/o' if paper_time is None else _paper_text(paper_time, 1)}]"
             rates.append(rate)
             times.append(time)
-        lines.append(f"| {row} | Success rate | " + " | ".join(rates) + " |")
+        lines.append(f"| {markdown_cell(row)} | Success rate | " + " | ".join(rates) + " |")
         lines.append("|  | Time (s) | " + " | ".join(times) + " |")
     return "\n".join(lines) + "\n"
 
@@ -253,7 +255,7 @@ def markdown_failures(shares: dict[tuple[str, str], dict[str, float]]) -> str:
     lines.append("| --- | --- | " + " | ".join("---" for _ in kinds) + " |")
     for (row, problem), share in shares.items():
         values = " | ".join(f"{share.get(k, 0):.2f}" for k in kinds)
-        lines.append(f"| {row} | {problem} | {values} |")
+        lines.append(f"| {markdown_cell(row)} | {markdown_cell(problem)} | {values} |")
     return "\n".join(lines) + "\n"
 
 
@@ -334,6 +336,8 @@ class ReportFiles:
     markdown: Path
     csv: Path
     plots: tuple[Path, ...]
+    left_out: tuple[str, ...] = ()
+    """Records not counted, one line per problem (:func:`newest_problem_versions`)."""
 
 
 def write_report(
@@ -346,9 +350,12 @@ def write_report(
 ) -> tuple[str, ReportFiles]:
     """Write ``name``.md, ``name``.csv and the plots into ``out_dir``; return the Markdown.
 
-    Every table and plot counts the newest record of each trial (a retried trial once), in
-    rows split by settings where one label ran with several (:func:`rows_by_settings`)."""
-    records = rows_by_settings(records)
+    Every table and plot counts the newest record of each trial (a retried trial once), of
+    the newest version of each problem file (:func:`newest_problem_versions`; the others are
+    named under "Records left out" and in ``left_out``), in rows split by settings where one
+    label ran with several (:func:`rows_by_settings`)."""
+    current, left_out = newest_problem_versions(records)
+    records = rows_by_settings(current)
     table = build_table(records)
     shares = failure_shares(records)
     sized = has_sizes(records)
@@ -370,6 +377,9 @@ def write_report(
         if noise_curve is not None:
             text += "\n## Success rate against the noisy proposer's error rate\n\n"
             text += markdown_curve(noise_curve)
+    if left_out:
+        text += "\n## Records left out (an older version of their problem file)\n\n"
+        text += "".join(f"- {markdown_cell(note)}\n" for note in left_out)
     out_dir.mkdir(parents=True, exist_ok=True)
     markdown_path = out_dir / f"{name}.md"
     markdown_path.write_text(text, encoding="utf-8")
@@ -384,4 +394,4 @@ def write_report(
             plots.append(plot_failures(shares, out_dir / f"{name}-failures.{suffix}"))
         if noise_curve is not None:
             plots.append(plot_curve(noise_curve, out_dir / f"{name}-noise.{suffix}"))
-    return text, ReportFiles(markdown_path, csv_path, tuple(plots))
+    return text, ReportFiles(markdown_path, csv_path, tuple(plots), tuple(left_out))

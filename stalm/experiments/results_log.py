@@ -10,9 +10,12 @@ A last line that is a whole record missing only its newline is a record: it is k
 given its newline.
 
 Reading never stops at a bad line: a line that is not UTF-8, not JSON, or not a trial record
-(a field the report needs is missing or of the wrong type, see :data:`REQUIRED_FIELDS`) is
-skipped and named (``file:line: why``) in :attr:`LoadedRecords.problems`; every other record
-is kept.
+(a field the report needs is missing, of the wrong type or out of range: see
+:func:`record_problem`) is skipped and named (``file:line: why``, the why naming the field) in
+:attr:`LoadedRecords.problems`; every other record is kept. This is the one reader of records
+(resuming an experiment and the report both read through it), so a record the report counts
+has been checked as a problem file is: no count of objects that is no count, no negative or
+astronomical time.
 
 A trial is finished when its last record is not an ``error`` (an exception in a planner):
 re-running the same command skips finished trials and retries errored ones.
@@ -29,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from stalm.errors import StalmError
+from stalm.files import short_repr
 
 REQUIRED_FIELDS: dict[str, type] = {
     "key": str,
@@ -39,6 +43,13 @@ REQUIRED_FIELDS: dict[str, type] = {
 """Fields every trial record has (what resuming and the report group by), with their types."""
 
 _NUMBER_FIELDS = ("time_s", "time_budget_s")
+MAX_RECORD_SECONDS = 1e7
+"""A trial's time and budget in a record: at most 10^7 s (about 116 days), which no trial
+takes; beyond it a mean is nonsense (``1e308`` printed a 300-digit one)."""
+MAX_RECORD_OBJECTS = 10_000
+"""A record's ``objects`` (a scale trial's number of movable objects): 1 to this many."""
+_OPTIONAL_TEXT = ("problem_sha", "problem_hash", "suite")
+"""Optional fields that, when present, are text (the report groups by the first two)."""
 SET_ASIDE_SUFFIX = ".set-aside"
 
 
@@ -58,6 +69,27 @@ def record_problem(record: object) -> str | None:
         number = isinstance(value, int | float) and not isinstance(value, bool)
         if not number or not math.isfinite(value):
             return f"not a trial record ({name!r} is not a finite number)"
+        if not 0 <= value <= MAX_RECORD_SECONDS:
+            return (
+                f"not a trial record ({name!r} is {short_repr(value)}, not 0 to "
+                f"{MAX_RECORD_SECONDS:g} seconds)"
+            )
+    if "objects" in record:
+        objects = record["objects"]
+        whole = isinstance(objects, int) and not isinstance(objects, bool)
+        if not whole or not 1 <= objects <= MAX_RECORD_OBJECTS:
+            return (
+                f"not a trial record ('objects' is {short_repr(objects)}, not a whole number "
+                f"1 to {MAX_RECORD_OBJECTS})"
+            )
+    for name in _OPTIONAL_TEXT:
+        if name in record and not isinstance(record[name], str):
+            return f"not a trial record ({name!r} is {short_repr(record[name])}, not text)"
+    for name in ("started_at", "finished_at"):
+        value = record.get(name, 0.0)
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        if not number or not math.isfinite(value):
+            return f"not a trial record ({name!r} is {short_repr(value)}, not a finite time)"
     if record.get("success") and "time_s" not in record:
         return "not a trial record (a success without 'time_s')"
     failures = record.get("llm_plan_failures") or {}

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from stalm.experiments.markdown_cells import cell as markdown_cell
+
 
 @dataclass(frozen=True)
 class ScaleCell:
@@ -24,17 +26,28 @@ class ScaleCell:
     mean_success_time_s: float | None
 
 
+def object_count(record: dict[str, Any]) -> int | None:
+    """The record's ``objects`` if it is a count (a whole number of at least 1), else None.
+    Records are checked as they are read (:func:`~stalm.experiments.results_log.
+    record_problem`); this keeps records handed in by other code from a log of 0 or less."""
+    objects = record.get("objects")
+    if isinstance(objects, bool) or not isinstance(objects, int) or objects < 1:
+        return None
+    return objects
+
+
 def has_sizes(records: Iterable[dict[str, Any]]) -> bool:
     """Do the records come from a scale experiment (they carry ``objects``)?"""
-    return any(isinstance(r.get("objects"), int) for r in records)
+    return any(object_count(r) is not None for r in records)
 
 
 def scale_cells(records: Iterable[dict[str, Any]]) -> dict[tuple[str, int], ScaleCell]:
-    """(row, object count) -> its cell; records without ``objects`` are left out."""
+    """(row, object count) -> its cell; records without a count of ``objects`` are left out."""
     grouped: dict[tuple[str, int], list[dict[str, Any]]] = defaultdict(list)
     for record in records:
-        if isinstance(record.get("objects"), int):
-            grouped[(str(record["arm"]), record["objects"])].append(record)
+        objects = object_count(record)
+        if objects is not None:
+            grouped[(str(record["arm"]), objects)].append(record)
     cells = {}
     for key, group in grouped.items():
         times = [float(r["time_s"]) for r in group if r.get("success")]
@@ -73,7 +86,7 @@ def markdown_scale(cells: dict[tuple[str, int], ScaleCell]) -> str:
                 points.append((size, cell.mean_success_time_s))
         fitted = slope(points)
         texts.append("–" if fitted is None else f"{fitted:.2f}")
-        lines.append(f"| {row} | " + " | ".join(texts) + " |")
+        lines.append(f"| {markdown_cell(row)} | " + " | ".join(texts) + " |")
     return "\n".join(lines) + "\n"
 
 

@@ -12,12 +12,14 @@ P6) times ``budget_scale``, unless ``time_budget_s`` fixes one for all.
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from stalm.errors import StalmError
 from stalm.experiments.noise_report import noisy_label
+from stalm.experiments.results_log import MAX_RECORD_SECONDS
 from stalm.experiments.trials import Arm, TrialSpec, check_problem_name, derive_seed
 from stalm.llm.prompt import PromptOptions
 from stalm.planners.registry import PROPOSING, planner_entry
@@ -104,6 +106,9 @@ class ExperimentPlan:
     problem_fields: dict[str, dict[str, object]] = field(default_factory=dict)
     """Fields each problem's records carry besides the usual ones (a suite's name and the
     problem's number of objects), by problem as ``problems`` names it."""
+    problem_digests: dict[str, str] = field(default_factory=dict)
+    """The SHA-256 each problem file's text must have (a suite's index records them), by
+    problem as ``problems`` names it: checked on the very text the trials run."""
 
     def __post_init__(self) -> None:
         if self.trials < 1:
@@ -167,6 +172,7 @@ def build_plan(
     base = replace(base, budget=replace(base.budget, time_budget_s=None))
     arms: list[Arm]
     fields: dict[str, dict[str, object]] = {}
+    digests: dict[str, str] = {}
     if (name == "scale") != (suite is not None):
         raise StalmError(
             "--suite DIR goes with the scale experiment (and it needs one)"
@@ -174,7 +180,7 @@ def build_plan(
             else "the scale experiment runs a suite of generated problems: give --suite DIR"
         )
     if suite is not None:
-        from stalm.generate.suite import read_suite
+        from stalm.generate.suite_index import read_suite
 
         if problems:
             raise StalmError("--problems and --suite exclude each other")
@@ -183,6 +189,7 @@ def build_plan(
         fields = {
             str(read.path(p)): {"suite": read.name, "objects": p.objects} for p in read.problems
         }
+        digests = {str(read.path(p)): p.sha256 for p in read.problems}
     if name == "additions":
         base = with_values(base, [("proposer.kind", "noisy")], "experiment additions")
     rates = _rates(base, rates)
@@ -234,6 +241,7 @@ def build_plan(
         budget_scale=budget_scale,
         time_budget_s=time_budget_s,
         problem_fields=fields,
+        problem_digests=digests,
     )
 
 
@@ -275,11 +283,22 @@ def trial_specs(plan: ExperimentPlan) -> list[TrialSpec]:
     """Every trial of ``plan``, trial-major: the first trial of every (problem, arm) comes
     before any second trial, so a run stopped early still covers the whole table."""
     loaded = {name: check_problem_name(name) for name in plan.problems}
+    for name, digest in plan.problem_digests.items():
+        if hashlib.sha256(loaded[name][1].encode()).hexdigest() != digest:
+            raise StalmError(
+                f"{name}: differs from the suite's index (edited after it was generated?): "
+                "make the suite again (stalm generate --suite ... --replace)"
+            )
     specs = []
     for trial in range(plan.trials):
         for problem in plan.problems:
             canonical, text, problem_budget = loaded[problem]
             budget = plan.time_budget_s or problem_budget
+            if budget * plan.budget_scale > MAX_RECORD_SECONDS:
+                raise StalmError(
+                    f"{problem}: a time budget of {budget * plan.budget_scale:g} s is more than "
+                    f"a record holds ({MAX_RECORD_SECONDS:g} s)"
+                )
             for arm in plan.arms:
                 specs.append(
                     TrialSpec(

@@ -17,7 +17,8 @@ from stalm.domain.outcome import Infeasibility
 from stalm.errors import StalmError
 from stalm.generate.arrange import Knobs
 from stalm.generate.problem_maker import DECIMALS, generate_problem
-from stalm.generate.suite import INDEX, read_suite, witness_path
+from stalm.generate.suite import witness_path
+from stalm.generate.suite_index import INDEX, read_suite
 from stalm.motion.problem_check import problem_geometry_faults
 from stalm.trial.replay import replay_plan
 from stalm.world.problem import load_problem
@@ -163,9 +164,14 @@ def test_a_suite_index_naming_files_elsewhere_is_refused(tmp_path: Path) -> None
     (tmp_path / INDEX).write_text(
         json.dumps(
             {
+                "suite_version": 2,
                 "suite": "x",
                 "seed": 0,
+                "sizes": [1],
+                "per_size": 1,
+                "layout": "kitchen-hall",
                 "knobs": {},
+                "complete": True,
                 "problems": [
                     {
                         "file": "../../etc/passwd",
@@ -173,6 +179,8 @@ def test_a_suite_index_naming_files_elsewhere_is_refused(tmp_path: Path) -> None
                         "objects": 1,
                         "seed": 0,
                         "optimal_length": 1,
+                        "sha256": "0" * 64,
+                        "witness_sha256": "0" * 64,
                     }
                 ],
             }
