@@ -1,8 +1,8 @@
 """Which model ``stalm rerun`` asks, and where its replies and outputs go.
 
 A record is a file someone may send: it names a model -- often a server, perhaps one with a
-key of yours -- and a reply-cache file. Neither is the record's to choose on your machine
-(issue 30, items 1 and 2). The model a rerun asks is the one the user names: ``--llm``, else
+key of yours -- and a reply-cache file. Neither is the record's to choose on your machine.
+The model a rerun asks is the one the user names: ``--llm``, else
 ``$STALM_LLM``, else a server in ``$STALM_LLM_BASE_URL``; without one, the record's model is
 only replayed from the reply cache (nothing is contacted, no key is read), except the bundled
 embedded models, which run in this process and contact nothing. The reply cache is the one

@@ -49,7 +49,7 @@ def check_solve_numbers(seed: int, time_budget: float | None) -> None:
     settings tree, whose error names the option too."""
     from stalm.trial.result import check_seed, check_time_budget
 
-    check_seed(seed, "--seed")  # the API's own checks: the same words (issue 30)
+    check_seed(seed, "--seed")  # the API's own checks: the same words
     check_time_budget(time_budget, "--time-budget")
 
 

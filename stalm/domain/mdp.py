@@ -29,7 +29,7 @@ from stalm.world.state import RobotConf, State
 @dataclass(frozen=True)
 class RewardSettings:
     """R of §4.1 (+3 per goal AtPosition an action makes true, -6 infeasible), -3 per goal
-    AtPosition an action makes false (potential-based shaping, research notes) and the
+    AtPosition an action makes false (potential-based shaping, beyond the paper) and the
     authors' +100 at the goal; all configurable."""
 
     goal_atom: float = 3.0
@@ -171,7 +171,7 @@ class Domain:
         The -3 makes the +3 a potential-based shaping (Φ = 3 · goal conjuncts true): a path's
         return is its net goal progress, so picking an object off its goal and placing it
         back earns nothing and cannot be farmed, and the optimal plans are unchanged
-        (research notes, **Ours**).
+        (potential-based shaping, Ng et al. 1999).
         """
         spec = self.problem.spec
         gained = lost = 0

@@ -42,7 +42,7 @@ CARRY_CONF = robot_model.CARRY_CONF
 
 @dataclass(frozen=True)
 class SamplerSettings:
-    """Numbers of §4.1 and the authors' code (research notes)."""
+    """Numbers of §4.1 and of the authors' code."""
 
     pick_tries: int = 30
     place_tries: int = 40

@@ -46,13 +46,13 @@ AUTHORS_SETTINGS: dict[str, object] = {
     "execution.feedback": False,
     "execution.backtracks": 0,
 }
-"""How the authors' code ran every method, which made the paper's numbers
-(``research/original_repo.md``): the executed child's subtree kept between steps, the
-highest-Q root action executed, no reward taken back when an action undoes a goal conjunct,
-κ drawn up to 3 times per task-plan step, no geometric feedback and no backtracking in
-Concretize. The rows named after the paper's methods run with these; this implementation's
-additions (the tree's defaults: the 'progress' rule, -3 for an undone conjunct, feedback and
-backtracking with the symbolic proposer) get rows of their own, named with a ``+``."""
+"""How the authors' code ran every method, which made the paper's numbers: the executed
+child's subtree kept between steps, the highest-Q root action executed, no reward taken
+back when an action undoes a goal conjunct, κ drawn up to 3 times per task-plan step, no
+geometric feedback and no backtracking in Concretize. The rows named after the paper's
+methods run with these; this implementation's additions (the tree's defaults: the
+'progress' rule, -3 for an undone conjunct, feedback and backtracking with the symbolic
+proposer) get rows of their own, named with a ``+``."""
 PAPER_ROWS = (
     "stalm",
     "stalm-no-uct",

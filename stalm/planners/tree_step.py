@@ -79,7 +79,8 @@ class StalmSettings:
     """Concretize draws a placement again when an object the plan put down is in the way of a
     later step, at most this many times per plan (0: Algorithm 2)."""
     rewards: RewardSettings
-    """R's constants (§4.1, with the potential-based −3 of the research notes)."""
+    """R's constants (§4.1, with this implementation's potential-based −3 for an undone goal
+    conjunct)."""
     occlusion_predicates: bool
     """Compute PickOccludedBy/PlaceOccludedBy: for the prompt (False for Table 4's arms whose
     prompt does not show them, so those arms do not pay for motion planning they never use)

@@ -81,8 +81,8 @@ class WideningPolicy(Protocol):
 class ProgressiveWidening:
     """Draw a new κ while #children ≤ k·N^α, N the node's visits before this one.
 
-    Counting N before the current visit gives the research notes' schedule for k = 1.5,
-    α = 0.15: one child at N = 0, two at N = 1, three from N = 7, four from N = 102.
+    Counting N before the current visit gives, for k = 1.5 and α = 0.15, one child at
+    N = 0, two at N = 1, three from N = 7, four from N = 102.
     """
 
     k: float
@@ -229,7 +229,7 @@ class FinalChoice(Protocol):
 
 def best_by_q(root: DiscreteNodeView) -> tuple[ContinuousNodeView, KappaView] | None:
     """The highest-Q discrete child, then its highest-Q κ child; ties go to more visits,
-    then to the earlier child (research notes, **Ours**).
+    then to the earlier child (this implementation's tie rule; the paper gives none).
 
     Only visited, feasible κ children count (and discrete children that have one): a κ known
     to be infeasible would leave the real state unchanged, so it is never recommended. None if

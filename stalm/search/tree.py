@@ -5,7 +5,7 @@ root's legal actions in :meth:`SearchTree.for_root` it never calls the MDP, and 
 chooses: which child to follow, when to widen and how to value a leaf are policies
 (:mod:`stalm.search.policies`), so baselines swap them without touching the tree.
 
-Shape (the paper's T(s) with the research notes' choices):
+Shape (the paper's T(s), with this implementation's choices where it is silent):
 
 * Discrete nodes are keyed by :class:`State`, so identical states reached along different
   paths are one node (the paper's T(s)); ``n`` counts the visits that passed through it.
@@ -203,7 +203,7 @@ class SearchTree:
     def subtree(self, root: State) -> SearchTree:
         """The part of this tree reachable from ``root``, as a new tree rooted there.
 
-        Tree reuse between real steps (research notes, "The experiment loop"): after the
+        Tree reuse between real steps, as the authors' code does: after the
         robot executes an action, the node its outcome leads to becomes the next search's
         root and keeps every statistic below it (visits, Q, κ children and their stored
         outcomes); nodes no longer reachable are dropped, so the tree's memory follows what

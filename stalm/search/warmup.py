@@ -4,7 +4,7 @@ Each concretized plan becomes one path from the root: its continuous nodes and �
 added without the widening test (the κ was already paid for), an infeasible step becomes an
 infeasible κ child (reward -6, terminal), and the states it reached become discrete nodes with
 all their legal actions registered. Then the plan's value is backed up along the path exactly
-as a simulation's is (**Ours** in the research notes): incremental means, one visit per node,
+as a simulation's is (this implementation's choice): incremental means, one visit per node,
 root included. The authors' code instead overwrote node values with plain means and left the
 root's count alone; keeping one update rule means warm-up statistics and search statistics mix
 without bias.

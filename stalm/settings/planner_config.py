@@ -98,7 +98,7 @@ def llm_backend(settings: RunSettings) -> LLMBackend:
     llm = settings.llm
     replay = llm.cache == "replay" or llm.from_record  # replay only reads the file
     cache = None if llm.cache_file is None else ReplyCache(llm.cache_file, read_only=replay)
-    if llm.from_record:  # a server only a record names is never asked (issue 30, item 1)
+    if llm.from_record:  # a server only a record names is never asked: replay its cache
         from stalm.llm.backends.identity import CacheOnlyBackend, spec_identity
 
         replay_only = CacheOnlyBackend(spec_identity(llm.backend))

@@ -2,8 +2,8 @@
 
 A model name alone does not say who answered: any OpenAI-compatible server may call its model
 ``gpt-4-turbo-2024-04-09``. The reply cache therefore keys a reply by the backend's identity --
-its provider and, for a server, its base URL in one normal form -- as well as by the model
-(issue 30, item 3). :func:`spec_identity` reads the identity a ``--llm`` spec names without
+its provider and, for a server, its base URL in one normal form -- as well as by the model.
+:func:`spec_identity` reads the identity a ``--llm`` spec names without
 building the backend: no client, no key, no model loaded, nothing contacted, so a rerun can
 say which model its record names and replay that model's cached replies while leaving its
 server alone. :class:`CacheOnlyBackend` is that: the identity of a backend which is never
