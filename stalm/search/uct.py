@@ -30,7 +30,7 @@ from stalm.search.search_mdp import SearchMDP
 from stalm.search.settings import SearchSettings
 from stalm.search.transition import CountingMDP, apply, draw
 from stalm.search.tree import Edge, SearchTree, TreeStats
-from stalm.search.warmup import add_plan
+from stalm.search.warmup import warm_up_tree
 from stalm.world.state import State
 
 SimulationEnd = Literal["goal", "infeasible", "horizon", "leaf", "dead_end"]
@@ -179,24 +179,22 @@ def warm_started_uct(
 
     if mdp.is_goal(root):
         return result("goal", ())
-    for plan in plans:
-        if deadline is not None and time.monotonic() >= deadline:
-            return result("deadline")
-        if not plan.steps:
-            continue
-        added = add_plan(
-            tree,
-            counting,
-            plan,
-            rng,
-            depth0=depth0,
-            gamma=settings.gamma,
-            horizon=settings.horizon,
-            value=policies.value,
-        )
-        warmed += 1
-        if added.goal_plan is not None:
-            return result("goal", added.goal_plan, added.first_outcome)
+    added = warm_up_tree(
+        tree,
+        counting,
+        plans,
+        rng,
+        depth0=depth0,
+        gamma=settings.gamma,
+        horizon=settings.horizon,
+        value=policies.value,
+        deadline=deadline,
+    )
+    warmed = sum(1 for plan in added if plan.path)  # an empty task plan adds nothing
+    if added and added[-1].goal_plan is not None:
+        return result("goal", added[-1].goal_plan, added[-1].first_outcome)
+    if len(added) < len(plans):  # the clock stopped the warm-up
+        return result("deadline")
     for _ in range(settings.budget):
         if deadline is not None and time.monotonic() >= deadline:
             return result("deadline")

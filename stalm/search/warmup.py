@@ -15,6 +15,7 @@ horizon) and r + γ·V(s') otherwise, with V the search's value function (a roll
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -99,11 +100,15 @@ def warm_up_tree(
     gamma: float,
     horizon: int,
     value: ValueFunction,
+    deadline: float | None = None,
 ) -> tuple[WarmedPlan, ...]:
     """WarmUpTree: :func:`add_plan` for every plan, in order, stopping after a plan that
-    reaches the goal (the search is then over)."""
+    reaches the goal (the search is then over), or before the next plan once the clock passes
+    ``deadline`` (a ``time.monotonic()`` value)."""
     warmed: list[WarmedPlan] = []
     for plan in plans:
+        if deadline is not None and time.monotonic() >= deadline:
+            break
         done = add_plan(
             tree, mdp, plan, rng, depth0=depth0, gamma=gamma, horizon=horizon, value=value
         )

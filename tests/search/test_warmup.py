@@ -159,3 +159,15 @@ def test_golden_tree() -> None:
     if os.environ.get("STALM_UPDATE_GOLDEN"):
         GOLDEN.write_text(json.dumps(snapshot, indent=2) + "\n")
     assert snapshot == json.loads(GOLDEN.read_text())
+
+
+def test_a_passed_deadline_stops_the_warm_up_before_the_next_plan() -> None:
+    mdp = warm_chain()
+    rng = np.random.default_rng(0)
+    concrete = concretize(mdp.as_mdp(), state("s0"), [plan("w"), plan("a", "x")], rng, horizon=20)
+    tree = SearchTree.for_root(mdp.as_mdp(), state("s0"))
+    kwargs = {"depth0": 0, "gamma": GAMMA, "horizon": 20, "value": RolloutValue(GAMMA, 20)}
+    assert warm_up_tree(tree, mdp.as_mdp(), concrete.plans, rng, deadline=0.0, **kwargs) == ()
+    assert tree.node(state("s0")).n == 0  # nothing was added
+    added = warm_up_tree(tree, mdp.as_mdp(), concrete.plans, rng, deadline=None, **kwargs)
+    assert len(added) == 2
