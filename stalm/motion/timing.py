@@ -10,7 +10,9 @@ limits. toppra enforces the limits at its grid points (its samples of curved pat
 a fraction of a percent), so moves are timed at :data:`LIMIT_SCALE` of the limits.
 
 toppra (with scipy and matplotlib) takes over a second to import, so it is imported only when a
-move is timed.
+move is timed. Its solver works on path speeds squared with absolute tolerances: a move
+parameterised over [0, 1] that is a fraction of a micro-radian long (a yaw rounding, met on a
+P5 plan) leaves it no controllable set, so each move is parameterised over its own time scale.
 """
 
 from __future__ import annotations
@@ -92,10 +94,13 @@ def time_straight_move(
     import toppra.algorithm
     import toppra.constraint
 
-    toppra.setup_logging("WARNING")
-    path = toppra.SplineInterpolator([0.0, 1.0], np.array([first, last]))  # two knots: a line
     v = LIMIT_SCALE * np.asarray(velocity, dtype=float)
     a = LIMIT_SCALE * np.asarray(acceleration, dtype=float)
+    # the path parameter runs over the move's own time scale (its time at full speed, or to
+    # accelerate over it), so the solver's path speeds are near 1 for a long move or a tiny one
+    distance = np.abs(np.subtract(last, first))
+    scale = float(np.max(np.maximum(distance / v, np.sqrt(distance / a))))
+    path = toppra.SplineInterpolator([0.0, scale], np.array([first, last]))  # two knots: a line
     constraints = [
         toppra.constraint.JointVelocityConstraint(np.column_stack([-v, v])),
         toppra.constraint.JointAccelerationConstraint(np.column_stack([-a, a])),

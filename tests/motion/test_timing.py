@@ -119,3 +119,31 @@ def test_a_base_path_of_no_length_turns_in_place_or_stays() -> None:
     assert base_waypoints(BasePath(((1.0, 1.0, 0.5),))) == [(1.0, 1.0, 0.5)]
     motion = time_base_path(BasePath(((1.0, 1.0, 0.0), (1.0, 1.0, 1.0))), BaseLimits())
     assert motion.duration > 0 and motion.sample(50).positions[-1][2] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("size", [1e-14, 1e-9, 3.07e-7, 1e-5, 1e-3, 1.0, 3.0])
+def test_moves_from_tiny_to_long_are_timed(size) -> None:
+    """TOPP-RA's solver works on path speeds squared: a move parameterised over [0, 1] that is
+    a few tenths of a micro-radian long (a base's yaw rounding, met on P5) left it no
+    controllable set; the move's own time scale keeps its numbers near 1."""
+    limits = BaseLimits()
+    path = BasePath(((-3.95, 3.45, -3.141592), (-3.95, 3.45, -3.141592 - size)))
+    samples = time_base_path(path, limits).sample(50.0)
+    assert samples.positions[-1][2] == pytest.approx(-3.141592 - size, abs=1e-12)
+    assert np.abs(samples.velocities[:, 2]).max() <= limits.turn_rate * (1 + TOLERANCE)
+    assert np.abs(samples.accelerations[:, 2]).max() <= limits.turn_acceleration * (1 + TOLERANCE)
+
+
+def test_random_arm_moves_of_every_scale_keep_their_limits() -> None:
+    rng = np.random.default_rng(3)
+    velocity = np.array([0.1, 2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61])
+    acceleration = np.array([0.5, 15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
+    for _ in range(40):
+        start = rng.uniform(-2, 2, 8)
+        scale = 10 ** rng.uniform(-9, 0.5, 8) * (rng.random(8) < 0.7)
+        end = start + rng.uniform(-1, 1, 8) * scale
+        move = time_straight_move(start, end, velocity, acceleration)
+        q, qd, qdd = move.state(np.linspace(0, move.duration, 200))
+        assert q[-1] == pytest.approx(end, abs=1e-12)
+        assert np.all(np.abs(qd) <= LIMIT_SCALE * velocity * (1 + TOLERANCE))
+        assert np.all(np.abs(qdd) <= LIMIT_SCALE * acceleration * (1 + TOLERANCE))
