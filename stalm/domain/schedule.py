@@ -66,6 +66,19 @@ class PlanSchedule:
     def duration(self) -> float:
         return self.actions[-1].end if self.actions else 0.0
 
+    def time_of(self, action: int, motion: str, move: int = 0, fraction: float = 1.0) -> float:
+        """The robot time at a point of the plan: ``fraction`` of the way through straight
+        move ``move`` of ``action``'s ``base`` or ``arm`` motion; the action's ``end``; -1 is
+        the plan's start."""
+        if action < 0:
+            return 0.0
+        timing = self.actions[action]
+        if motion == "base":
+            return timing.start + float(timing.base.time_at(move, [fraction])[0])
+        if motion == "arm":
+            return timing.arm_start + float(timing.arm.time_at(move, [fraction])[0])
+        return timing.end
+
     @property
     def events(self) -> tuple[PlanEvent, ...]:
         events = []

@@ -142,7 +142,10 @@ class TimedMotion:
         return self.waypoint_times[-1]
 
     def time_at(self, move: int, fractions: Sequence[float]) -> np.ndarray:
-        """When the motion has covered ``fractions`` of its ``move``-th straight move."""
+        """When the motion has covered ``fractions`` of its ``move``-th straight move (a move
+        past the last: the motion's end)."""
+        if move >= len(self.moves):
+            return np.full(len(fractions), self.duration)
         return self.waypoint_times[move] + self.moves[move].time_at(fractions)
 
     def sample(self, rate: float) -> MotionSamples:
