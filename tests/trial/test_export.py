@@ -4,6 +4,8 @@ point, start and end at the plan's waypoints, and carry the grasp, release and d
 The limits the tests check against are read here from the URDF PyBullet loads (its joints'
 ``maxVelocity``) and from Franka's documented accelerations, not from the export itself.
 ``tests/viz/data/p2_steps_result.json`` is a real result: STaLM solving P2, with an OPEN.
+``data/p5_result.json`` is ``stalm solve P5 --seed 0 --json`` (15 actions) without its
+per-step record (``details``), which the export does not read.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from tests.cli_runner import run_cli
 
 RESULT_FILE = Path(__file__).parents[1] / "viz" / "data" / "p2_steps_result.json"
 RESULT = json.loads(RESULT_FILE.read_text())
+P5_FILE = Path(__file__).parent / "data" / "p5_result.json"
 TOLERANCE = 1e-6
 """Relative slack on a limit: float rounding only (the plan is timed at 98% of the limits)."""
 POSITION_TOLERANCE = 1e-9
@@ -209,9 +212,21 @@ def test_stalm_export_refuses_a_file_that_is_no_result(monkeypatch, capsys, tmp_
     assert not default_output(bad).exists()
 
 
+def test_a_p5_result_exports_within_the_urdf_limits(monkeypatch, tmp_path) -> None:
+    """The issue's done-when, on a recorded P5 solve: the export keeps the URDF's limits."""
+    out = tmp_path / "p5.trajectories.json"
+    assert run_cli(monkeypatch, "export", str(P5_FILE), "-o", str(out)) == 0
+    plan = json.loads(P5_FILE.read_text())["plan"]
+    exported = json.loads(out.read_text())
+    check_trajectories(exported, plan)
+    assert exported["problem"] == "P5" and len(exported["events"]) == len(plan) == 15
+    assert exported["reached_goal"]
+
+
 @pytest.mark.slow
 def test_a_p5_solve_exports_within_the_urdf_limits(monkeypatch, tmp_path) -> None:
-    """The issue's done-when: ``stalm export`` of a P5 result keeps the limits of the URDF."""
+    """The issue's done-when on a fresh solve: ``stalm export`` of a P5 result keeps the
+    limits of the URDF."""
     result, out = tmp_path / "p5.json", tmp_path / "p5.trajectories.json"
     assert run_cli(monkeypatch, "solve", "P5", "--seed", "0", "--json", str(result), "-q") == 0
     assert run_cli(monkeypatch, "export", str(result), "-o", str(out)) == 0
