@@ -147,3 +147,19 @@ def test_random_arm_moves_of_every_scale_keep_their_limits() -> None:
         assert q[-1] == pytest.approx(end, abs=1e-12)
         assert np.all(np.abs(qd) <= LIMIT_SCALE * velocity * (1 + TOLERANCE))
         assert np.all(np.abs(qdd) <= LIMIT_SCALE * acceleration * (1 + TOLERANCE))
+
+
+def test_an_empty_move_is_always_done() -> None:
+    move = time_straight_move([1.0], [1.0], [1.0], [1.0])
+    assert move.fraction(np.array([0.0, 1.0])).tolist() == [1.0, 1.0]
+
+
+def test_a_move_toppra_cannot_time_is_an_error_not_a_silent_jump(monkeypatch) -> None:
+    import toppra.algorithm
+
+    def no_timing_double(self, *args, **kwargs):  # a solver that finds nothing
+        return None
+
+    monkeypatch.setattr(toppra.algorithm.TOPPRA, "compute_trajectory", no_timing_double)
+    with pytest.raises(RuntimeError, match="TOPP-RA found no timing"):
+        time_straight_move([0.0], [1.0], [1.0], [1.0])

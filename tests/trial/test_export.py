@@ -234,3 +234,37 @@ def test_a_p5_solve_exports_within_the_urdf_limits(monkeypatch, tmp_path) -> Non
     exported = json.loads(out.read_text())
     check_trajectories(exported, plan)
     assert exported["problem"] == "P5" and len(exported["events"]) == len(plan)
+
+
+def test_an_export_over_a_limit_is_never_returned(problems, monkeypatch) -> None:
+    import stalm.trial.export as export
+
+    def one_violation_double(exported, limits, tolerance=0.0):  # as if the timing overshot
+        return ["trajectory 0 (pick(bottle1), base): speed 1.2 over 1"]
+
+    monkeypatch.setattr(export, "limit_violations", one_violation_double)
+    with pytest.raises(RuntimeError, match="exceeds a limit: trajectory 0"):
+        export_result(problems["P2"], copy.deepcopy(RESULT), rate=5.0)
+
+
+def test_stalm_export_prints_the_replays_warnings(monkeypatch, capsys, tmp_path) -> None:
+    data = copy.deepcopy(RESULT)
+    data["plan"] = data["plan"][:1]
+    result = tmp_path / "short.json"
+    result.write_text(json.dumps(data))
+    assert run_cli(monkeypatch, "export", str(result), "--rate", "5") == 0
+    assert "warning: the plan does not reach the goal" in capsys.readouterr().err
+    assert default_output(result).exists()
+
+
+def test_stalm_export_says_when_it_cannot_write(monkeypatch, capsys, tmp_path) -> None:
+    import stalm.cli.export_commands as commands
+
+    def full_disk_double(path, text):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(commands, "write_replacing", full_disk_double)
+    out = tmp_path / "t.json"
+    assert run_cli(monkeypatch, "export", str(RESULT_FILE), "-o", str(out), "--rate", "5") == 2
+    err = capsys.readouterr().err
+    assert f"--output {out}: cannot write it (No space left on device)" in " ".join(err.split())
