@@ -11,6 +11,7 @@ per-step record (``details``), which the export does not read.
 from __future__ import annotations
 
 import copy
+import itertools
 import json
 import math
 import re
@@ -101,6 +102,15 @@ def check_trajectories(exported: dict[str, Any], plan: list[dict[str, Any]]) -> 
         times = [point["time_from_start"] for point in points]
         assert times[0] == 0.0 and times[-1] == pytest.approx(trajectory["duration"])
         assert np.all(np.diff(times) > 0)
+    for motion in ("base", "arm"):  # each motion starts where the last of its kind ended
+        chain = [t for t in exported["trajectories"] if t["motion"] == motion]
+        for before, after in itertools.pairwise(chain):
+            end = np.array(before["points"][-1]["positions"])
+            start = np.array(after["points"][0]["positions"])
+            gap = end - start
+            if motion == "base":
+                gap[2] = math.remainder(gap[2], math.tau)
+            assert np.abs(gap).max() < 1e-6, (before["step"], after["step"], gap)
 
 
 def test_the_exported_plan_keeps_the_urdf_limits_and_its_waypoints(exported) -> None:
