@@ -66,18 +66,27 @@ class PlanSchedule:
     def duration(self) -> float:
         return self.actions[-1].end if self.actions else 0.0
 
-    def time_of(self, action: int, motion: str, move: int = 0, fraction: float = 1.0) -> float:
-        """The robot time at a point of the plan: ``fraction`` of the way through straight
-        move ``move`` of ``action``'s ``base`` or ``arm`` motion; the action's ``end``; -1 is
-        the plan's start."""
-        if action < 0:
-            return 0.0
-        timing = self.actions[action]
-        if motion == "base":
-            return timing.start + float(timing.base.time_at(move, [fraction])[0])
-        if motion == "arm":
-            return timing.arm_start + float(timing.arm.time_at(move, [fraction])[0])
-        return timing.end
+    def times_of(self, points: Sequence[tuple[int, str, int, float]]) -> list[float]:
+        """The robot time at each point of the plan, given as (action, motion, move,
+        fraction): ``fraction`` of the way through straight move ``move`` of the action's
+        ``base`` or ``arm`` motion, or the action's ``end``; action -1 is the plan's start.
+        The points of one move are found together (one bisection for all of them)."""
+        times = [0.0] * len(points)
+        groups: dict[tuple[int, str, int], list[int]] = {}
+        for index, (action, motion, move, _) in enumerate(points):
+            if action >= 0 and motion == "end":
+                times[index] = self.actions[action].end
+            elif action >= 0:
+                groups.setdefault((action, motion, move), []).append(index)
+        for (action, motion, move), indices in groups.items():
+            timing = self.actions[action]
+            start, timed = (
+                (timing.start, timing.base) if motion == "base" else (timing.arm_start, timing.arm)
+            )
+            found = timed.time_at(move, [points[i][3] for i in indices])
+            for index, time in zip(indices, found, strict=True):
+                times[index] = start + float(time)
+        return times
 
     @property
     def events(self) -> tuple[PlanEvent, ...]:

@@ -31,8 +31,9 @@ from stalm.world.robot_limits import BaseLimits, JointLimits
 
 LIMIT_SCALE = 0.98
 """Moves are timed at this fraction of every limit: a margin for the sampled trajectory."""
-BISECTION_STEPS = 60
-"""Halvings of a move's duration when finding the time a fraction of it is reached."""
+BISECTION_STEPS = 32
+"""Halvings of a move's duration when finding the time a fraction of it is reached: to a
+4e9th of it (a nanosecond of a four-second move)."""
 SAME_TIME = 1e-9
 """Sample times closer than this (s) are one sample."""
 

@@ -225,17 +225,16 @@ def motion_frames(
     moving = _moving_bodies(sim)
     if schedule is None:
         schedule = schedule_plan([action for action, _ in plan], panda_limits())
-    actions: list[int] = []
-    times: list[float] = []
+    places: list[tuple[int, str, int, float]] = []
     poses: list[list[float]] = []
     arms: list[list[Any]] = []
     for place in plan_motion_places(sim, start, plan):
         frame_poses, arm = _frame(sim, moving)
-        actions.append(place.action)
-        time = schedule.time_of(place.action, place.motion, place.move, place.fraction)
-        times.append(round(time, TIME_DIGITS))
+        places.append((place.action, place.motion, place.move, place.fraction))
         poses.append(frame_poses)
         arms.append(arm)
+    times = [round(time, TIME_DIGITS) for time in schedule.times_of(places)]
+    actions = [action for action, _, _, _ in places]
     return {"action": actions, "time": times, "poses": poses, "arm": arms}
 
 

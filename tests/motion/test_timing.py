@@ -53,7 +53,7 @@ def test_a_move_stays_on_its_line_from_rest_to_rest_within_its_limits() -> None:
     # some joint is at its limit most of the way: the timing is not needlessly slow
     assert np.max(np.abs(qd) / velocity) == pytest.approx(LIMIT_SCALE, rel=1e-3)
     fractions = [0.0, 0.25, 0.5, 0.9, 1.0]
-    assert move.fraction(move.time_at(fractions)) == pytest.approx(fractions, abs=1e-9)
+    assert move.fraction(move.time_at(fractions)) == pytest.approx(fractions, abs=1e-8)
 
 
 def test_an_empty_move_takes_no_time() -> None:
