@@ -29,27 +29,27 @@ LIFT_JOINT_NAME = "lift"
 joint of this name carries its trajectory."""
 
 FRANKA_ACCELERATION = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
-"""Joint accelerations (rad/s²) of the Panda's joints 1-7, as Franka documents them (the joint
-space limits of libfranka's control parameters page). The URDF states velocities but no
+"""Joint accelerations (rad/s²) of the Panda's joints 1-7, as Franka documents them (its joint
+space limits for the robot's control interface). The URDF states velocities but no
 accelerations; MoveIt's Panda configuration uses a quarter of these."""
 
 LIFT_SPEED = 0.1
-"""Lift speed (m/s): Fetch's torso lift, a column of the same travel carrying an arm
-(``torso_lift_joint`` in Fetch's URDF and its MoveIt ``joint_limits.yaml``)."""
+"""Lift speed (m/s): Fetch's torso lift, a column of the same travel carrying an arm (its
+``torso_lift_joint`` in Fetch's URDF and MoveIt configuration)."""
 LIFT_ACCELERATION = 0.5
-"""Lift acceleration (m/s²): Fetch's torso lift (MoveIt ``joint_limits.yaml``)."""
+"""Lift acceleration (m/s²): Fetch's torso lift (its MoveIt configuration)."""
 BASE_SPEED = 1.0
-"""Speed of the base along its path (m/s), in any direction: Clearpath Ridgeback's
-``max_velocity`` per axis, a holonomic (mecanum) base made to carry arms
-(``ridgeback_control/config/control.yaml``). Bounding the speed itself, not each axis, keeps
-every axis of the base's own frame within it whichever way the base faces."""
+"""Speed of the base along its path (m/s), in any direction: the velocity limit per axis of
+Clearpath Ridgeback's controller, a holonomic (mecanum) base made to carry arms. Bounding the
+speed itself, not each axis, keeps every axis of the base's own frame within it whichever way
+the base faces."""
 BASE_ACCELERATION = 1.0
-"""Acceleration of the base along its path (m/s²): Ridgeback's ``max_acceleration`` per axis."""
+"""Acceleration of the base along its path (m/s²): Ridgeback's controller limit per axis."""
 BASE_TURN_RATE = 1.5
-"""Yaw rate of the base (rad/s): Fetch's navigation profile (``max_vel_theta``); Ridgeback's
-controller allows 4 rad/s, brisk for a base with an arm on top."""
+"""Yaw rate of the base (rad/s): Fetch's navigation profile; Ridgeback's controller allows
+4 rad/s, brisk for a base with an arm on top."""
 BASE_TURN_ACCELERATION = 0.8
-"""Yaw acceleration of the base (rad/s²): Fetch's navigation profile (``acc_lim_theta``)."""
+"""Yaw acceleration of the base (rad/s²): Fetch's navigation profile."""
 
 
 @dataclass(frozen=True)
