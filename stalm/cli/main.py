@@ -18,6 +18,7 @@ from rich.console import Console
 from stalm.cli import (
     bench_commands,
     experiment_commands,
+    export_commands,
     generate_commands,
     llm_commands,
     predicate_commands,
@@ -51,6 +52,7 @@ for module in (
     solve_commands,
     rerun_commands,
     view_commands,
+    export_commands,
     generate_commands,
 ):
     app.add_typer(module.commands)

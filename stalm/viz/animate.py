@@ -9,8 +9,10 @@ each shown for longer; :func:`plan_motion`, which ``stalm view``'s page follows,
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 from PIL import Image
@@ -18,8 +20,8 @@ from PIL import Image
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
 from stalm.errors import StalmError
 from stalm.files import replacing
-from stalm.motion.arm_motion import interpolate_waypoints
-from stalm.motion.base_motion import densify
+from stalm.motion.arm_motion import interpolate, interpolate_waypoints
+from stalm.motion.base_motion import BasePath, densify
 from stalm.viz.render import perspective, top_down
 from stalm.viz.sizes import GIF_SIZE, check_size
 from stalm.world.scene import Sim
@@ -95,21 +97,68 @@ def write_animation(
     return len(frames)
 
 
+@dataclass(frozen=True)
+class FramePlace:
+    """Where a frame of :func:`plan_motion` is in the plan: the action (-1 for the start) and
+    its ``motion``: ``base`` or ``arm`` partway through a straight move (from waypoint
+    ``move`` to the next, ``fraction`` of the way), or ``end`` (the door swinging and the
+    state the action leads to, after its motions). :mod:`stalm.domain.schedule` gives the
+    robot time of each."""
+
+    action: int
+    motion: str
+    move: int = 0
+    fraction: float = 1.0
+
+
 def plan_motion(sim: Sim, start: State, plan: Sequence[tuple[Action, State]]) -> Iterator[int]:
     """Set ``sim`` to each frame of ``plan`` in turn (the base driving, the arm moving, the
     door swinging) and yield, while it shows that frame, the index of the action being
     executed (-1 for the start). The GIF and ``stalm view``'s page both follow this motion,
     so they show the same thing."""
+    for place in plan_motion_places(sim, start, plan):
+        yield place.action
+
+
+def _base_places(path: BasePath, resolution: float) -> list[tuple[int, float]]:
+    """(corner pair, fraction of it) of each waypoint of ``densify(path, resolution)`` after
+    the first, as densify steps along the pairs; a path of no length is all at its end."""
+    count = len(densify(path, resolution)) - 1
+    if path.length == 0.0:
+        return [(len(path.corners), 1.0)] * count
+    places = []
+    for pair, (a, b) in enumerate(itertools.pairwise(path.corners)):
+        steps = max(1, math.ceil(math.dist(a[:2], b[:2]) / resolution))
+        places += [(pair, i / steps) for i in range(1, steps + 1)]
+    return places
+
+
+def _arm_places(waypoints: Sequence[tuple[float, ...]]) -> list[tuple[int, float]]:
+    """(waypoint pair, fraction of it) of each configuration of
+    ``interpolate_waypoints(waypoints)``."""
+    places = [(0, 0.0)]
+    for pair, (a, b) in enumerate(itertools.pairwise(waypoints)):
+        steps = len(interpolate(a, b)) - 1
+        places += [(pair, i / steps) for i in range(1, steps + 1)]
+    return places
+
+
+def plan_motion_places(
+    sim: Sim, start: State, plan: Sequence[tuple[Action, State]]
+) -> Iterator[FramePlace]:
+    """:func:`plan_motion`, yielding where in the plan each frame is."""
     state = start
     sim.set_state(state)
-    yield -1
+    yield FramePlace(-1, "start")
     for number, (action, next_state) in enumerate(plan):
         params = action.params
         sim.set_state(state)
         path = densify(params.base_path, BASE_STEP)
-        for pose in path[1:]:
+        for pose, (pair, fraction) in zip(
+            path[1:], _base_places(params.base_path, BASE_STEP), strict=True
+        ):
             sim.set_base_only(pose)
-            yield number
+            yield FramePlace(number, "base", pair, fraction)
         stand = params.base_path.corners[-1]
         sim.set_base_only(stand)
         if isinstance(params, PickParams):
@@ -119,6 +168,7 @@ def plan_motion(sim: Sim, start: State, plan: Sequence[tuple[Action, State]]) ->
         else:
             split = params.arm_waypoints.index(params.handle_conf)
         dense = interpolate_waypoints(list(params.arm_waypoints))
+        arm_places = _arm_places(params.arm_waypoints)
         grasp_index = _index_of(dense, params.arm_waypoints[split])
         step = max(1, len(dense) // (ARM_FRAMES * max(1, len(params.arm_waypoints) - 1)))
         for index in range(0, len(dense), step):
@@ -129,7 +179,7 @@ def plan_motion(sim: Sim, start: State, plan: Sequence[tuple[Action, State]]) ->
                 sim.place_object(action.discrete.as_tuple()[1], params.placement)
             conf = dense[index]
             sim.set_arm(stand, conf[0], conf[1:])
-            yield number
+            yield FramePlace(number, "arm", *arm_places[index])
         if isinstance(params, OpenParams):
             door = sim.problem.door(action.discrete.as_tuple()[1])
             for t in (0.25, 0.5, 0.75, 1.0):
@@ -137,10 +187,10 @@ def plan_motion(sim: Sim, start: State, plan: Sequence[tuple[Action, State]]) ->
                     door.open_yaw - door.closed_yaw, math.tau
                 )
                 sim.set_door_angle(door.name, yaw)
-                yield number
+                yield FramePlace(number, "end")
         state = next_state
         sim.set_state(state)
-        yield number
+        yield FramePlace(number, "end")
 
 
 def _index_of(dense: list[tuple[float, ...]], conf: tuple[float, ...]) -> int:

@@ -8,7 +8,9 @@ and turned into triangle meshes in each body's own frame, so the page shows exac
 geometry the planner checked collisions against, and the browser moves the meshes itself.
 The frames follow :func:`stalm.viz.animate.plan_motion`, the motion the GIF shows: per frame
 the pose of every body that moves (doors, objects, the robot's base and lift) and the Panda's
-joint positions, drawn as a stick figure (its links are meshes, not primitives).
+joint positions, drawn as a stick figure (its links are meshes, not primitives), and its time
+in seconds of robot time, from the timing ``stalm export`` writes
+(:mod:`stalm.domain.schedule`).
 
 A result file is not trusted: its plan is replayed in a fresh scene from the problem's own
 initial state (:func:`stalm.trial.replay.replay_result_json`), which gives the states the
@@ -27,13 +29,15 @@ import numpy as np
 import pybullet as p
 
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
+from stalm.domain.schedule import PlanSchedule, schedule_plan
 from stalm.errors import StalmError
 from stalm.files import read_json_file
 from stalm.trial.replay import replay_result_json
 from stalm.trial.result import phase_times_json
 from stalm.trial.step_log import DECISIONS
-from stalm.viz.animate import plan_motion
+from stalm.viz.animate import plan_motion_places
 from stalm.world.problem import Problem
+from stalm.world.robot_limits import panda_limits
 from stalm.world.scene import Sim
 from stalm.world.state import State
 
@@ -45,6 +49,8 @@ FINGER_LINKS = (9, 11, 10)
 """Left fingertip, grasp point, right fingertip: the gripper's bar."""
 POSITION_DIGITS = 4
 """Decimals kept of a coordinate in the page (0.1 mm)."""
+TIME_DIGITS = 3
+"""Decimals kept of a frame's robot time in the page (1 ms)."""
 
 
 def load_result(path: Path) -> dict[str, Any]:
@@ -205,19 +211,31 @@ def _frame(sim: Sim, moving: list[tuple[str, str, int]]) -> tuple[list[float], l
     return poses, figure
 
 
-def motion_frames(sim: Sim, start: State, plan: Sequence[tuple[Action, State]]) -> dict[str, Any]:
-    """Every frame of the plan's motion: the action it belongs to (-1: the start), the poses
-    of the moving bodies (in :func:`scene_meshes`' order) and the arm's figure."""
+def motion_frames(
+    sim: Sim,
+    start: State,
+    plan: Sequence[tuple[Action, State]],
+    schedule: PlanSchedule | None = None,
+) -> dict[str, Any]:
+    """Every frame of the plan's motion: the action it belongs to (-1: the start), its robot
+    time (seconds from the plan's start, as ``stalm export`` times the plan: the same
+    parameterisation under the robot's limits; ``schedule`` if given, else the plan timed
+    under today's robot's), the poses of the moving bodies (in :func:`scene_meshes`' order)
+    and the arm's figure."""
     moving = _moving_bodies(sim)
-    actions: list[int] = []
+    if schedule is None:
+        schedule = schedule_plan([action for action, _ in plan], panda_limits())
+    places: list[tuple[int, str, int, float]] = []
     poses: list[list[float]] = []
     arms: list[list[Any]] = []
-    for number in plan_motion(sim, start, plan):
+    for place in plan_motion_places(sim, start, plan):
         frame_poses, arm = _frame(sim, moving)
-        actions.append(number)
+        places.append((place.action, place.motion, place.move, place.fraction))
         poses.append(frame_poses)
         arms.append(arm)
-    return {"action": actions, "poses": poses, "arm": arms}
+    times = [round(time, TIME_DIGITS) for time in schedule.times_of(places)]
+    actions = [action for action, _, _, _ in places]
+    return {"action": actions, "time": times, "poses": poses, "arm": arms}
 
 
 # ---------------------------------------------------------------------------- the plan
@@ -244,7 +262,9 @@ def describe_params(action: Action) -> str:
     return text + f"; {len(params.arm_waypoints)} arm waypoints"
 
 
-def _plan_rows(data: dict[str, Any], parsed: Sequence[Action]) -> list[dict[str, Any]]:
+def _plan_rows(
+    data: dict[str, Any], parsed: Sequence[Action], schedule: PlanSchedule
+) -> list[dict[str, Any]]:
     raw = data.get("plan") if isinstance(data.get("plan"), list) else []
     rows = []
     for index, item in enumerate(raw or []):
@@ -255,6 +275,9 @@ def _plan_rows(data: dict[str, Any], parsed: Sequence[Action]) -> list[dict[str,
         }
         if index < len(parsed):
             row["summary"] = describe_params(parsed[index])
+        if index < len(schedule.actions):
+            timing = schedule.actions[index]
+            row["robot_time"] = [round(timing.start, TIME_DIGITS), round(timing.end, TIME_DIGITS)]
         rows.append(row)
     return rows
 
@@ -287,10 +310,11 @@ def view_data(problem: Problem, data: dict[str, Any], source: str = "") -> dict[
                 f"({report.reason}); the animation stops before it"
             )
     pairs = list(zip(parsed, states[1:], strict=False))
+    schedule = schedule_plan([action for action, _ in pairs], panda_limits())
     with Sim(problem.spec) as sim:
         sim.set_state(problem.initial_state)
         meshes = scene_meshes(sim)
-        frames = motion_frames(sim, states[0], pairs)
+        frames = motion_frames(sim, states[0], pairs, schedule)
     details = data.get("details") if isinstance(data.get("details"), dict) else {}
     step_log = details.get("step_log") if isinstance(details, dict) else None
     if not isinstance(step_log, list):
@@ -315,7 +339,7 @@ def view_data(problem: Problem, data: dict[str, Any], source: str = "") -> dict[
         "llm_plan_failures": data.get("llm_plan_failures") or {},
         "proposer": details.get("proposer") if isinstance(details, dict) else None,
         "replay": replay,
-        "plan": _plan_rows(data, parsed),
+        "plan": _plan_rows(data, parsed, schedule),
         "scene": meshes,
         "frames": frames,
         "step_log": step_log,

@@ -121,9 +121,16 @@
     const f = frames.action.indexOf(action);
     return f < 0 ? nFrames - 1 : f;
   }
+  const times = frames.time || [];
+  const robotEnd = times.length ? times[times.length - 1] : null;
+  function robotTime(f) {
+    // seconds of robot time: the plan timed under the robot's limits, as stalm export does
+    if (typeof times[f] !== "number") return "";
+    return ", " + num(times[f], 1) + " s of " + num(robotEnd, 1) + " s robot time";
+  }
   function showLabel(f) {
     const a = frames.action[f];
-    label.textContent = "frame " + (f + 1) + "/" + nFrames + ": " +
+    label.textContent = "frame " + (f + 1) + "/" + nFrames + robotTime(f) + ": " +
       (a < 0 ? "the initial state" : "action " + (a + 1) + "/" + plan.length + " " +
         actionText(plan[a] ? plan[a].action : "?"));
     document.querySelectorAll("#plan tbody tr").forEach(function (row, index) {
@@ -195,6 +202,10 @@
     tr.appendChild(el("td", actionText(row.action), "mono"));
     const params = el("td");
     params.appendChild(el("div", row.summary || "(not replayed)"));
+    if (Array.isArray(row.robot_time)) {
+      params.appendChild(el("div", "robot time " + num(row.robot_time[0], 1) + "-" +
+        num(row.robot_time[1], 1) + " s (timed under the robot's limits, as stalm export)", "hint"));
+    }
     const more = el("details");
     more.appendChild(el("summary", "all parameters"));
     more.appendChild(el("pre", JSON.stringify(row.params, null, 1), "mono"));

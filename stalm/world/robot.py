@@ -32,6 +32,10 @@ ARM_JOINT_LIMITS = (
 )
 FINGER_OPENING = 0.04
 """Each finger's opening (m): the gripper stays fully open; grasping is kinematic."""
+GRASP_FRAME = "panda_grasptarget"
+"""The URDF link a grasp is expressed in (the point between the fingertips)."""
+MOUNT_DESCRIPTION = "holonomic disc base (x, y, yaw) with a vertical lift carrying the arm"
+"""How the arm is mounted, as an exported trajectory describes the robot."""
 
 
 @dataclass(frozen=True)

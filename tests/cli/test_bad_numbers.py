@@ -115,7 +115,7 @@ def test_view_of_a_result_with_non_finite_times(monkeypatch, capsys, tmp_path, c
     assert not (tmp_path / "r.html").exists()
 
 
-@pytest.mark.parametrize("command", ["view", "replay", "rerun"])
+@pytest.mark.parametrize("command", ["view", "replay", "rerun", "export"])
 def test_results_nested_very_deep(monkeypatch, capsys, tmp_path, command) -> None:
     path = tmp_path / "deep.json"
     path.write_text('{"problem": "P2", "plan": ' + "[" * 100_000 + "]" * 100_000 + "}")
@@ -132,7 +132,7 @@ def test_results_nested_just_below_the_json_limit(monkeypatch, capsys, tmp_path)
     path = tmp_path / "deep.json"
     data = '{"problem": "P2", "seed": 0, "settings": {}, "planner": "uct", "plan": '
     path.write_text(data + "[" * 900 + "]" * 900 + "}")
-    for command in ("view", "replay", "rerun"):
+    for command in ("view", "replay", "rerun", "export"):
         assert run_cli(monkeypatch, command, str(path)) == 2
         assert "deep" in one_error_line(capsys.readouterr().err)
 

@@ -65,3 +65,10 @@ def test_solve_help_says_what_runs_when_no_model_is_named(monkeypatch, capsys) -
     text = _help(monkeypatch, capsys, "solve")
     assert "'embedded' (default)" not in text
     assert "None named: STaLM runs on the symbolic proposer" in text
+
+
+def test_export_help_states_its_rate_limits(monkeypatch, capsys) -> None:
+    from stalm.trial.export import RATE_RANGE
+
+    low, high = RATE_RANGE
+    assert f"({low:g}-{high:g} Hz)" in _help(monkeypatch, capsys, "export")

@@ -40,7 +40,7 @@ def secret_file(tmp_path: Path) -> Path:
     return path
 
 
-@pytest.mark.parametrize("command", ["replay", "view", "rerun"])
+@pytest.mark.parametrize("command", ["replay", "view", "rerun", "export"])
 def test_a_problem_path_in_a_result_is_not_echoed(
     monkeypatch, capsys, tmp_path, secret_file, command
 ) -> None:

@@ -68,6 +68,9 @@ def test_replay_view_and_rerun_reopen_a_record_whose_problem_file_is_gone(
     capsys.readouterr()
     assert run_cli(monkeypatch, "rerun", str(record)) == 0
     assert "the plan is the record's" in capsys.readouterr().out
+    trajectories = elsewhere / "mine.trajectories.json"
+    assert run_cli(monkeypatch, "export", str(record), "-o", str(trajectories)) == 0
+    assert json.loads(trajectories.read_text(encoding="utf-8"))["problem"] == "Mine"
 
 
 def test_the_record_carries_the_validated_problem_serialised_deterministically(
@@ -83,7 +86,7 @@ def test_the_record_carries_the_validated_problem_serialised_deterministically(
     assert json.dumps(problem_fields(mine)) == json.dumps(problem_fields(again))
 
 
-@pytest.mark.parametrize("command", ["replay", "view", "rerun"])
+@pytest.mark.parametrize("command", ["replay", "view", "rerun", "export"])
 def test_an_invalid_embedded_problem_is_refused_naming_the_record_and_field(
     record: Path, elsewhere: Path, monkeypatch: pytest.MonkeyPatch, capsys: Any, command: str
 ) -> None:
@@ -124,7 +127,7 @@ def test_problem_option_overrides_and_is_checked_against_the_hash(
     capsys.readouterr()
     other = elsewhere / "other.yaml"
     other.write_text(MINE.replace("horizon: 20", "horizon: 21"), encoding="utf-8")
-    for command in ("replay", "view", "rerun"):
+    for command in ("replay", "view", "rerun", "export"):
         assert run_cli(monkeypatch, command, str(record), "--problem", str(other)) == 2
         line = one_error_line(capsys.readouterr().err)
         assert f"--problem {other}: not the problem" in line

@@ -11,6 +11,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import re
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
@@ -113,6 +114,7 @@ def test_the_page_draws_the_scene_and_the_timeline_moves_it(browser, pages) -> N
         assert changed.sum() > 300, "moving the timeline changes the picture"
         label = page.text_content("#frame-label")
         assert f"frame {frames // 2 + 1}/{frames}" in label and "action" in label
+        assert re.search(r", [\d.]+ s of [\d.]+ s robot time: ", label)  # the export's timing
         # the plan table follows: the current action's row is highlighted
         assert page.locator("#plan tbody tr.current").count() == 1
         # step to an action: to the first frame of the next one

@@ -9,6 +9,7 @@ goal. ``tests/planners/data/p2_result.json`` is an older file, without the per-s
 from __future__ import annotations
 
 import copy
+import itertools
 import json
 from pathlib import Path
 
@@ -127,3 +128,30 @@ def test_solve_refuses_an_html_path_it_cannot_write_before_planning(
 ) -> None:
     assert run_cli(monkeypatch, "solve", "P2", "--html", str(tmp_path)) == 2
     assert "--html" in capsys.readouterr().err
+
+
+def test_the_timeline_is_in_seconds_of_the_robot_time_stalm_export_gives(problems, page_data):
+    """Each frame's robot time comes from the plan timed as ``stalm export`` times it: it
+    starts at 0, never runs back, ends with the plan, and falls inside its action's span."""
+    from stalm.domain.schedule import schedule_plan
+    from stalm.domain.serialize import action_from_json
+    from stalm.world.robot_limits import panda_limits
+
+    schedule = schedule_plan(
+        [action_from_json(item) for item in STEPS_RESULT["plan"]], panda_limits()
+    )
+    frames, rows = page_data["frames"], page_data["plan"]
+    times = frames["time"]
+    assert len(times) == len(frames["action"]) and times[0] == 0.0
+    assert all(b >= a for a, b in itertools.pairwise(times))
+    assert times[-1] == pytest.approx(schedule.duration, abs=1e-3) and times[-1] > 30
+    for action, time in zip(frames["action"], times, strict=True):
+        if action >= 0:
+            start, end = rows[action]["robot_time"]
+            assert start - 1e-3 <= time <= end + 1e-3
+    for row, timing in zip(rows, schedule.actions, strict=True):
+        assert row["robot_time"] == pytest.approx([timing.start, timing.end], abs=1e-3)
+    # the drive's last frame is at the time the arm starts, the action's last at its end
+    first = [t for a, t in zip(frames["action"], times, strict=True) if a == 0]
+    assert any(abs(t - schedule.actions[0].arm_start) < 1e-3 for t in first)
+    assert first[-1] == pytest.approx(schedule.actions[0].end, abs=1e-3)
