@@ -113,14 +113,19 @@ def bench_predicates(
     ] = None,
     workers: Annotated[
         int,
-        typer.Option(min=1, help="Also time the full computation shared by this many processes."),
+        typer.Option(
+            help="Also time the full computation shared by this many processes (at most the "
+            "cores this process may use)."
+        ),
     ] = 1,
 ) -> None:
     """The batched predicate engine beside its PyBullet reference: the full computation, the
     relevance-limited one, and the cached updates after an OPEN, a PICK and a PLACE."""
+    from stalm.cores import check_process_count
     from stalm.experiments.bench_predicates import default_problems, run
 
     _check(seed, json_out)
+    check_process_count("--workers", workers)
     names = problems or default_problems()
     table = Table(title="predicates: batched engine / PyBullet reference (s)")
     for column in (

@@ -109,7 +109,12 @@ def experiment_command(
     sims: Annotated[
         int | None, typer.Option(help="N_budget (search.sims; default: the paper's).")
     ] = None,
-    workers: Annotated[int, typer.Option(help="Trials run at once, one process each.")] = 1,
+    workers: Annotated[
+        int,
+        typer.Option(
+            help="Trials run at once, one process each (at most the cores this process may use)."
+        ),
+    ] = 1,
     ray: Annotated[
         str | None,
         typer.Option("--ray", help="Run on a Ray cluster: 'auto', 'ray://host:10001' or 'local'."),
@@ -138,10 +143,12 @@ def experiment_command(
     ] = None,
 ) -> None:
     """Run a paper experiment's trials; re-running the same command resumes it."""
+    from stalm.cores import check_process_count
     from stalm.experiments.results_log import ResultsLog
     from stalm.experiments.runner import run_experiment
     from stalm.experiments.suites import build_plan, trial_specs
 
+    check_process_count("--workers", workers)  # the runner checks too: here before any work
     flags = given(
         sims=("search.sims", sims), cache=("llm.cache", cache), proposer=("proposer.kind", proposer)
     )

@@ -18,6 +18,7 @@ from types import FrameType
 from typing import Any
 
 from stalm import stopping
+from stalm.cores import check_process_count, usable_cores
 from stalm.errors import StalmError
 from stalm.experiments.results_log import ResultsLog
 from stalm.experiments.trials import TrialSpec, run_trial
@@ -58,8 +59,7 @@ def run_experiment(
     on_record: OnRecord | None = None,
 ) -> RunSummary:
     """Run every unfinished trial of ``specs`` and append its record to ``log``."""
-    if workers < 1:
-        raise StalmError(f"--workers must be at least 1, got {workers}")
+    check_process_count("--workers", workers)
     if ray_address is None:
         check_cores(specs, workers)
     todo = pending_specs(specs, log)
@@ -83,13 +83,6 @@ def run_experiment(
     else:
         _run_in_processes(todo, workers, keep)
     return RunSummary(len(specs), len(specs) - len(todo), len(todo), solved, errors)
-
-
-def usable_cores() -> int:
-    """The cores this process may run on (its affinity, as ``taskset`` sets it)."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
 
 
 def check_cores(specs: Sequence[TrialSpec], workers: int) -> None:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from stalm.cores import check_process_count
 from stalm.errors import StalmError
 from stalm.geometry.transforms import Pose3, compose, invert, quat_yaw, wrap_angle, yaw_quat
 from stalm.motion.base_motion import BasePlanner
@@ -78,17 +79,15 @@ class PredicateSettings:
     Forked copies of the process each sample a share of the actions
     (:mod:`stalm.predicates.forked`) and the literals are the same for any number; the
     cheaper cached updates after an action stay in one process. An experiment running
-    trials side by side must leave a core per process (``stalm experiment`` checks)."""
+    trials side by side must leave a core per process (``stalm experiment`` checks); more
+    than the cores this process may use is refused (:func:`~stalm.cores.check_process_count`)."""
     engine: Engine = "batched"
     """How the sampled motions are swept: 'batched' (compiled candidate tests, each candidate
     confirmed by PyBullet) or 'pybullet' (every configuration queried; the reference). Both
     give the same literals (:mod:`stalm.motion.colliders`)."""
 
     def __post_init__(self) -> None:
-        if isinstance(self.workers, bool) or not isinstance(self.workers, int) or self.workers < 1:
-            raise StalmError(
-                f"setting predicates.workers must be a whole number >= 1, got {self.workers!r}"
-            )
+        check_process_count("setting predicates.workers", self.workers)
         if self.engine not in ENGINES:
             raise StalmError(
                 f"setting predicates.engine must be one of {', '.join(ENGINES)}, got "

@@ -35,7 +35,10 @@ from stalm.settings.tree import FLAT_NAMES, RunSettings
 
 NON_NEGATIVE = ("samplers", "predicates")
 """Sections of the layers' own dataclasses whose counts must not be negative (they check
-nothing themselves); ``predicates.seed`` is any integer."""
+nothing themselves), but for the keys of :data:`NOT_COUNTS`."""
+NOT_COUNTS = ("predicates.seed", "predicates.workers")
+"""``predicates.seed`` is any integer; ``predicates.workers`` is checked by its section, with
+the words every count of processes is refused with (0 and -1 alike)."""
 
 
 def _hints(cls: type) -> dict[str, Any]:
@@ -153,8 +156,8 @@ def _checked(key: str, value: Any, source: str) -> Any:
         raise StalmError(
             f"{source}: {key} must be {_describe(hint)}, got {short_repr(value)}"
         ) from None
-    section, _, name = key.partition(".")
-    if section in NON_NEGATIVE and name != "seed" and isinstance(coerced, int) and coerced < 0:
+    counted = key.partition(".")[0] in NON_NEGATIVE and key not in NOT_COUNTS
+    if counted and isinstance(coerced, int) and coerced < 0:
         raise StalmError(f"{source}: {key} must be an integer >= 0, got {coerced!r}")
     return coerced
 
