@@ -12,6 +12,11 @@ signal's number. After the first signal the next ones are ignored, so that a sch
 second TERM or an impatient second Ctrl-C cannot cut the clean-up short (it is bounded: a
 worker that does not stop is killed).
 
+``kill -9`` runs nothing, so a process stalm started cannot be told by its parent: an
+experiment's workers would wait on their pipe for ever (each holding its scene and model).
+:func:`end_with_parent` has a process sent a signal when its parent dies, so that it stops
+as a signal stops it (a worker unwinds its trial, removing its folders and Fast Downward).
+
 :func:`end_helper_processes` stops multiprocessing's resource tracker, which Python 3.11 leaves
 to end on its own after stalm has exited: an orphan, which an init that reaps nothing (some
 containers) keeps as a zombie. Like :mod:`stalm.errors`, this module sits below every layer.
@@ -19,9 +24,13 @@ containers) keeps as a zombie. Like :mod:`stalm.errors`, this module sits below 
 
 from __future__ import annotations
 
+import ctypes
 import gc
+import os
 import signal
+import sys
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
@@ -114,3 +123,52 @@ def end_helper_processes() -> None:
     if run_finalizers is not None:
         run_finalizers(0)
     stop()
+
+
+PR_SET_PDEATHSIG = 1
+"""Linux's prctl option: the signal a process gets when its parent ends."""
+PARENT_POLL_S = 0.5
+"""Where there is no parent-death signal, how often a process looks whether its parent is
+still the one it started with."""
+
+
+def end_with_parent(signum: int, parent: int) -> None:
+    """Have this process sent ``signum`` when ``parent`` (the pid of its parent, read in the
+    parent before the process was started) ends.
+
+    On Linux the kernel sends it (``prctl(PR_SET_PDEATHSIG)``); elsewhere a daemon thread
+    looks every :data:`PARENT_POLL_S` seconds whether the parent changed (an orphan is
+    adopted by another). A parent that ended before this was called is found by its pid: the
+    signal is then sent at once."""
+    if not (sys.platform.startswith("linux") and _parent_death_signal(signum)):
+        watcher = threading.Thread(
+            target=_watch_parent, args=(signum, parent), name="stalm-parent-watch", daemon=True
+        )
+        watcher.start()
+    if os.getppid() != parent:
+        os.kill(os.getpid(), signum)
+
+
+def _parent_death_signal(signum: int) -> bool:
+    """Ask Linux for ``signum`` when the parent ends; False if that cannot be asked."""
+    prctl = getattr(_C_LIBRARY, "prctl", None)
+    return prctl is not None and int(prctl(PR_SET_PDEATHSIG, signum, 0, 0, 0)) == 0
+
+
+def _watch_parent(signum: int, parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL_S)
+    os.kill(os.getpid(), signum)
+
+
+def _c_library() -> ctypes.CDLL | None:
+    try:
+        return ctypes.CDLL(None, use_errno=True)
+    except OSError:
+        return None
+
+
+_C_LIBRARY = _c_library() if sys.platform.startswith("linux") else None
+"""The C library's functions, looked up once when this module is imported: a forked child
+must not load a library (another thread of its parent may have held the loader's lock when
+it forked)."""

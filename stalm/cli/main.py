@@ -36,6 +36,7 @@ from stalm.stopping import (
     stop_message,
     stopping_on_signals,
 )
+from stalm.temp_folders import remove_leftovers
 
 app = typer.Typer(
     name="stalm",
@@ -69,9 +70,11 @@ def main() -> None:
     a command (bad file, unknown name, unreachable server) is printed as one ``error:`` line
     with exit code 2 instead of a traceback (quoted text escaped, see :mod:`stalm.cli.display`).
     TERM, HUP and INT stop the command with everything it started and exit 128 + the signal's
-    number (:mod:`stalm.stopping`).
+    number (:mod:`stalm.stopping`). Each command first removes the temporary folders that
+    stalm processes killed outright left behind (:mod:`stalm.temp_folders`).
     """
     _one_line_warnings()
+    remove_leftovers()
     code: int | str | None = 0
     try:
         with stopping_on_signals():

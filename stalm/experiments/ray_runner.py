@@ -14,7 +14,6 @@ a private single-machine instance for this run.
 from __future__ import annotations
 
 import dataclasses
-import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ from typing import Any
 from stalm.errors import StalmError
 from stalm.experiments.trials import TrialSpec, run_trial
 from stalm.llm.cache_file import ReplyCache
+from stalm.temp_folders import temporary_folder
 
 RemoteResult = tuple[dict[str, Any], bytes | None]
 
@@ -29,7 +29,7 @@ RemoteResult = tuple[dict[str, Any], bytes | None]
 def trial_with_cache_copy(spec: TrialSpec, cache_bytes: bytes) -> RemoteResult:
     """Run ``spec`` against a private copy of the caller's reply cache; return its record and
     the copy if the trial added replies to it (else None)."""
-    with tempfile.TemporaryDirectory(prefix="stalm-ray-") as folder:
+    with temporary_folder("ray") as folder:
         path = Path(folder) / "replies.sqlite"
         path.write_bytes(cache_bytes)
         before = len(ReplyCache(path))
@@ -49,13 +49,13 @@ def trial_with_cache_copy(spec: TrialSpec, cache_bytes: bytes) -> RemoteResult:
 
 
 def _cache_snapshot(cache: ReplyCache) -> bytes:
-    with tempfile.TemporaryDirectory(prefix="stalm-ray-") as folder:
+    with temporary_folder("ray") as folder:
         return cache.export(Path(folder) / "snapshot.sqlite").read_bytes()
 
 
 def merge_cache_bytes(cache: ReplyCache, data: bytes) -> int:
     """Merge a cache file's bytes (from a worker) into ``cache``; return the replies added."""
-    with tempfile.TemporaryDirectory(prefix="stalm-ray-") as folder:
+    with temporary_folder("ray") as folder:
         path = Path(folder) / "incoming.sqlite"
         path.write_bytes(data)
         return cache.merge_from(path)

@@ -3,7 +3,10 @@
 Whatever runs a trial, its record comes back here and is appended to the results log the
 moment it arrives, so stopping the run (Ctrl-C, a kill, a lost cluster) loses only trials
 that were still running. Workers are spawned, not forked: each builds its own PyBullet client
-and model after start-up, and nothing of the caller's state leaks into them.
+and model after start-up, and nothing of the caller's state leaks into them. A worker never
+outlives the run: stopped by a signal, the run stops its workers; killed outright (``kill -9``,
+the out-of-memory killer), each worker is sent TERM by the kernel and stops as it would have
+been told to (:func:`~stalm.stopping.end_with_parent`).
 """
 
 from __future__ import annotations
@@ -108,7 +111,10 @@ def _run_in_processes(todo: Sequence[TrialSpec], workers: int, keep: OnRecord) -
     context = multiprocessing.get_context("spawn")
     # each worker stops on TERM, INT and HUP as this process does, cleaning up as it unwinds
     with ProcessPoolExecutor(
-        max_workers=workers, mp_context=context, initializer=_start_worker
+        max_workers=workers,
+        mp_context=context,
+        initializer=_start_worker,
+        initargs=(os.getpid(),),
     ) as pool:
         queue = list(todo)
         running: dict[Future[dict[str, Any]], TrialSpec] = {}
@@ -141,10 +147,16 @@ _in_trial = False
 """Whether this worker process is running a trial (see :func:`_stop_worker`)."""
 
 
-def _start_worker() -> None:
+def _start_worker(parent: int) -> None:
+    """Stop on TERM, INT and HUP as the CLI does (:func:`_stop_worker`), and on TERM when
+    ``parent`` (the process that runs the experiment) ends, even by ``kill -9``: nothing else
+    would end a worker waiting for its next trial, nor one in a trial nobody waits for (a
+    KILL where TERM is ignored: it must not outlive its parent)."""
     for number in stopping.STOP_SIGNALS:
         if signal.getsignal(number) is not signal.SIG_IGN:  # as stopping.install
             signal.signal(number, _stop_worker)
+    handled = signal.getsignal(signal.SIGTERM) is _stop_worker
+    stopping.end_with_parent(signal.SIGTERM if handled else signal.SIGKILL, parent)
 
 
 def _stop_worker(signum: int, frame: FrameType | None) -> None:

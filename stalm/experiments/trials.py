@@ -18,7 +18,6 @@ import hashlib
 import json
 import platform
 import socket
-import tempfile
 import time
 import traceback
 from dataclasses import dataclass
@@ -30,6 +29,7 @@ from stalm.planners.registry import build_planner, resolve
 from stalm.settings.io import changed, to_dict
 from stalm.settings.planner_config import PlannerConfig
 from stalm.settings.tree import FLAT_NAMES, RunSettings, with_budget
+from stalm.temp_folders import temporary_folder
 from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
 
 RECORD_VERSION = 1
@@ -151,7 +151,7 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
         "started_at": started,
         **dict(spec.fields),
     }
-    with tempfile.TemporaryDirectory(prefix="stalm-trial-") as folder:
+    with temporary_folder("trial") as folder:
         problem_file = Path(folder) / f"{spec.problem}.yaml"
         problem_file.write_text(spec.problem_yaml, encoding="utf-8")
         problem = load_problem(problem_file)

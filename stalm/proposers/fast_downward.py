@@ -14,7 +14,6 @@ import importlib.util
 import resource
 import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -33,6 +32,7 @@ from stalm.proposers.feedback import FailedStep
 from stalm.proposers.language_model import Proposal
 from stalm.proposers.occlusion_cycles import without_occlusion_cycles
 from stalm.proposers.task_objects import task_objects
+from stalm.temp_folders import temporary_folder
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -306,7 +306,7 @@ class SymbolicProposer:
         facts = sorted(init | set(_rule_literals(rules)))
         if self.needed_objects_only and self.goal_relations_only:
             vocabulary, facts = task_objects(vocabulary, facts, goal)
-        with tempfile.TemporaryDirectory(prefix="stalm-fd-") as folder:
+        with temporary_folder("fd") as folder:
             work = Path(folder)
             (work / "domain.pddl").write_text(
                 domain_pddl(feedback=True, goal_relations_only=self.goal_relations_only)

@@ -11,6 +11,7 @@ with generous timeouts; nothing is timed.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -44,8 +45,14 @@ def _session(sid: int) -> list[str]:
     return found
 
 
-def _poll(condition: Callable[[], bool], what: str) -> None:
-    deadline = time.monotonic() + TIMEOUT_S
+def _running(sid: int) -> list[str]:
+    """The processes of session ``sid`` that still run (not zombies: an orphan that ended
+    stays one here, its parent killed and this machine's init reaping nothing)."""
+    return [entry for entry in _session(sid) if entry.split()[1] != "Z"]
+
+
+def _poll(condition: Callable[[], bool], what: str, timeout_s: float = TIMEOUT_S) -> None:
+    deadline = time.monotonic() + timeout_s
     while not condition():
         if time.monotonic() > deadline:
             raise AssertionError(f"gave up waiting for {what}")
@@ -171,3 +178,87 @@ def test_sigterm_stops_an_experiment_with_its_workers(tmp_path: Path) -> None:
     assert "run the same command to resume" in " ".join(
         (tmp_path / "stderr.txt").read_text().split()
     )
+
+
+KILLED_RUN_ENDS_S = 10.0
+"""How long the processes of an experiment killed with SIGKILL may take to notice it (polled:
+the test passes as soon as they are gone)."""
+
+
+def _next_run(temp: Path) -> None:
+    """A next stalm command, with the killed run's temporary folder."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "TMPDIR": str(temp)}
+    code = "from stalm.cli.main import main; main()"
+    subprocess.run(
+        [sys.executable, "-c", code, "planners"],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        timeout=TIMEOUT_S,
+        check=True,
+    )
+
+
+@pytest.mark.slow
+def test_kill_9_of_an_experiment_ends_its_workers_and_the_next_run_clears_up(
+    tmp_path: Path,
+) -> None:
+    process, temp = _start(
+        tmp_path,
+        "experiment",
+        "table2",
+        "--problems",
+        "P1",
+        "--planners",
+        "stalm-symbolic",
+        "--trials",
+        "4",
+        "--workers",
+        "2",
+        "--time-budget",
+        "30",
+        "--results",
+        str(tmp_path / "results.jsonl"),
+    )
+    try:
+        _poll(
+            lambda: len(list(temp.glob("stalm-trial-*"))) == 2 or process.poll() is not None,
+            "two trials running",
+        )
+        assert process.poll() is None, "the experiment ended before its trials ran"
+        assert len(_running(process.pid)) >= 3  # itself and two workers (and their helpers)
+        os.kill(process.pid, signal.SIGKILL)
+        process.wait()
+        # the workers (about 450 MB each) and the resource tracker do not outlive it
+        _poll(
+            lambda: not _running(process.pid),
+            f"the processes of the killed run: {_running(process.pid)}",
+            KILLED_RUN_ENDS_S,
+        )
+        _next_run(temp)
+        assert sorted(p.name for p in temp.iterdir()) == []
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+
+
+@pytest.mark.slow
+def test_the_folder_a_solve_killed_with_kill_9_leaves_goes_with_the_next_run(
+    tmp_path: Path,
+) -> None:
+    process, temp = _start(
+        tmp_path, "solve", "P2", "--proposer", "symbolic", "--time-budget", "200"
+    )
+    try:
+        _poll(lambda: any(temp.glob("stalm-fd-*")) or process.poll() is not None, "Fast Downward")
+        assert process.poll() is None, "the solve ended before Fast Downward ran"
+        os.kill(process.pid, signal.SIGKILL)
+        process.wait()
+        left = [p.name for p in temp.iterdir()]
+        assert left and all(name.startswith(f"stalm-fd-{process.pid}-") for name in left), left
+        _next_run(temp)
+        assert sorted(p.name for p in temp.iterdir()) == []
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)  # Fast Downward, if it still runs
+        process.wait()

@@ -8,13 +8,13 @@ limit, unsolvable, or no plan).
 from __future__ import annotations
 
 import subprocess
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 from stalm.planners.pddlstream.pddl_text import DOMAIN_PDDL
 from stalm.proposers.fast_downward import read_plan_steps, search_task, translate_task
+from stalm.temp_folders import temporary_folder
 
 SEARCH = "lazy_wastar([ff()], preferred=[ff()], w=2)"
 """Fast Downward's search: weighted A* (w = 2) with the FF heuristic and preferred operators;
@@ -36,7 +36,7 @@ def fast_downward(
 ) -> SearchResult:
     """Translate and search ``problem`` over :data:`DOMAIN_PDDL` within ``time_limit_s``
     (and ``memory_limit_mb`` for the search)."""
-    with tempfile.TemporaryDirectory(prefix="stalm-pddlstream-") as folder:
+    with temporary_folder("pddlstream") as folder:
         work = Path(folder)
         (work / "domain.pddl").write_text(DOMAIN_PDDL)
         (work / "problem.pddl").write_text(problem)

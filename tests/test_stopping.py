@@ -1,0 +1,110 @@
+"""A process stalm starts ends with its parent, also when the parent is killed outright
+(issue 46, item 7: ``kill -9`` of an experiment left its workers waiting on their pipe).
+
+A parent process starts a child that calls :func:`stalm.stopping.end_with_parent`, then is
+killed with SIGKILL; the child must be sent the signal (it says so in a file and ends). This
+machine's init reaps no orphans, so the ended child may stay a zombie: a process that no
+longer runs. Everything is polled with generous timeouts; nothing is timed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+TIMEOUT_S = 60.0
+
+CHILD = """
+import os, signal, sys, time
+from stalm import stopping
+if sys.argv[1] == "poll":  # as where the kernel offers no parent-death signal
+    stopping._parent_death_signal = lambda signum: False
+out = sys.argv[3]
+def ended(signum, frame):
+    with open(out, "a") as f:
+        f.write(f"ended by {signal.Signals(signum).name}\\n")
+    os._exit(0)
+signal.signal(signal.SIGTERM, ended)
+stopping.end_with_parent(signal.SIGTERM, int(sys.argv[2]))
+with open(out, "a") as f:
+    f.write("ready\\n")
+time.sleep(120)
+"""
+
+PARENT = """
+import os, subprocess, sys, time
+child = subprocess.Popen([sys.executable, "-c", sys.argv[1], sys.argv[2], str(os.getpid()),
+                          sys.argv[3]])
+print(child.pid, flush=True)
+time.sleep(120)
+"""
+
+
+def _env() -> dict[str, str]:
+    return {**os.environ, "PYTHONPATH": str(ROOT)}
+
+
+def _poll(condition, what: str) -> None:
+    deadline = time.monotonic() + TIMEOUT_S
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"gave up waiting for {what}")
+        time.sleep(0.02)
+
+
+def _running(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie, or no process at all, does not)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat[stat.rindex(")") + 2] != "Z"
+
+
+def _said(path: Path) -> list[str]:
+    return path.read_text().split("\n")[:-1] if path.exists() else []
+
+
+@pytest.mark.parametrize("how", ["kernel", "poll"])
+def test_a_child_is_sent_its_signal_when_its_parent_is_killed(tmp_path: Path, how: str) -> None:
+    said = tmp_path / "child.txt"
+    parent = subprocess.Popen(
+        [sys.executable, "-c", PARENT, CHILD, how, str(said)],
+        stdout=subprocess.PIPE,
+        text=True,
+        env=_env(),
+        start_new_session=True,
+    )
+    try:
+        assert parent.stdout is not None
+        child = int(parent.stdout.readline())
+        _poll(lambda: _said(said) == ["ready"], "the child to be ready")
+        parent.kill()
+        parent.wait()
+        _poll(lambda: not _running(child), "the child to end")
+        assert _said(said) == ["ready", "ended by SIGTERM"]
+    finally:
+        with contextlib.suppress(ProcessLookupError):  # whatever is left of the test's
+            os.killpg(parent.pid, signal.SIGKILL)
+        parent.wait()
+
+
+def test_a_parent_gone_before_the_call_is_signalled_at_once(tmp_path: Path) -> None:
+    said = tmp_path / "child.txt"
+    not_the_parent = 1  # init is no stalm process's parent here: the parent "has changed"
+    done = subprocess.run(
+        [sys.executable, "-c", CHILD, "kernel", str(not_the_parent), str(said)],
+        env=_env(),
+        timeout=TIMEOUT_S,
+        check=False,
+    )
+    assert done.returncode == 0
+    assert _said(said) == ["ended by SIGTERM"]
