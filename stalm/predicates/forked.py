@@ -20,8 +20,12 @@ from __future__ import annotations
 import multiprocessing
 import os
 import pickle
+import signal
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
+
+from stalm import stopping
+from stalm.errors import StalmError
 
 Item = TypeVar("Item")
 Result = TypeVar("Result")
@@ -46,13 +50,7 @@ def forked_map(
     children: list[tuple[int, int]] = []  # (pid, read end of its pipe)
     try:
         for _ in range(1, processes):
-            read_end, write_end = os.pipe()
-            pid = os.fork()
-            if pid == 0:  # the child: compute what it is dealt, send it, leave
-                os.close(read_end)
-                _run_child(function, items, dealer, write_end)
-            os.close(write_end)
-            children.append((pid, read_end))
+            children.append(_fork_child(function, items, dealer))
         answers = [_work(function, items, dealer)]
         while children:
             pid, read_end = children.pop(0)
@@ -109,12 +107,52 @@ def _work(
     return done
 
 
+def _fork_child(
+    function: Callable[[Item], Result], items: Sequence[Item], dealer: _Dealer
+) -> tuple[int, int]:
+    """Fork a child that computes what it is dealt: its pid and the read end of its answer's
+    pipe. The stop signals are held while it forks, so that none reaches the child before it
+    has made them end it outright (:func:`_run_child`)."""
+    parent = os.getpid()
+    read_end, write_end = os.pipe()
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, stopping.STOP_SIGNALS)
+    try:
+        pid = os.fork()
+        if pid == 0:
+            _run_child(function, items, dealer, (read_end, write_end), parent, mask)
+    except OSError:
+        os.close(read_end)
+        os.close(write_end)
+        raise
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # the parent's (the child never returns)
+    os.close(write_end)
+    return pid, read_end
+
+
 def _run_child(
-    function: Callable[[Item], Result], items: Sequence[Item], dealer: _Dealer, write_end: int
+    function: Callable[[Item], Result],
+    items: Sequence[Item],
+    dealer: _Dealer,
+    pipe_ends: tuple[int, int],
+    parent: int,
+    mask: set[int | signal.Signals],
 ) -> None:
-    """Compute what this child is dealt and send it; never returns (the child always exits)."""
+    """Compute what this child is dealt and send it; never returns (the child always exits).
+
+    A stop signal (TERM, INT, HUP: a Ctrl-C reaches every process of the terminal's group)
+    ends the child at once, as does its parent's death: with the parent's handlers it would
+    unwind through the parent's code instead, print the parent's "stopped" line a second
+    time and remove the parent's temporary folders on the way out."""
     status = 1
     try:
+        for number in stopping.STOP_SIGNALS:
+            if signal.getsignal(number) is not signal.SIG_IGN:
+                signal.signal(number, signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # held ones arrive now, and end it
+        read_end, write_end = pipe_ends
+        os.close(read_end)
+        stopping.end_with_parent(signal.SIGKILL, parent)
         payload = _work(function, items, dealer)
         status = 0 if isinstance(payload, list) else 1
         try:
@@ -136,9 +174,20 @@ def _collect(pid: int, read_end: int) -> list[tuple[int, Any]] | BaseException:
     finally:
         _, status = os.waitpid(pid, 0)
     if not data:
-        return RuntimeError(
-            f"a forked predicate worker (pid {pid}) ended without an answer "
-            f"(wait status {status}): killed, or out of memory?"
+        return StalmError(
+            f"a forked predicate worker (pid {pid}) ended without an answer: {_ended(status)} "
+            "(killed, or out of memory? predicates.workers=1 computes without them)"
         )
     answer: list[tuple[int, Any]] | BaseException = pickle.loads(data)
     return answer
+
+
+def _ended(status: int) -> str:
+    """How a child ended, from its wait status, in words."""
+    code = os.waitstatus_to_exitcode(status)
+    if code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit status {code}"

@@ -8,8 +8,13 @@ literal and sample for sample, since every action draws from its own seeded gene
 from __future__ import annotations
 
 import os
+import re
+import signal
+import subprocess
+import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
@@ -23,6 +28,9 @@ from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.forked import forked_map
 from stalm.predicates.samples import PredicateSettings
 from stalm.settings.tree import RunSettings
+from tests.cli_runner import run_cli
+
+ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.skipif(not forked.can_fork(), reason="no fork on this platform")
 
@@ -89,7 +97,7 @@ def test_an_exception_in_the_caller_is_raised_after_the_children_end() -> None:
 
 
 def test_a_child_that_dies_without_answering_is_named() -> None:
-    with pytest.raises(RuntimeError, match="ended without an answer"):
+    with pytest.raises(StalmError, match="ended without an answer: exit status 3 "):
         forked_map(_in_a_child(lambda: os._exit(3)), [0, 1, 2, 3], 2)
 
 
@@ -167,3 +175,86 @@ def test_a_deadline_passing_in_a_shared_computation_gives_it_up(domain_factory) 
     again = engine.compute(problem.initial_state)
     alone = PredicateEngine(problem, domain.sim, domain.base_planner, PredicateSettings())
     assert again.literals == alone.compute(problem.initial_state).literals
+
+
+# --- A worker that dies, and signals around the fork (issue 46, item 8) -----------------------
+
+
+def _children_die(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every forked child is killed (as the out-of-memory killer would) before its first item."""
+    parent = os.getpid()
+    work = forked._work
+
+    def dying(function, items, dealer):
+        if os.getpid() != parent:
+            os.kill(os.getpid(), signal.SIGKILL)
+        return work(function, items, dealer)
+
+    monkeypatch.setattr(forked, "_work", dying)
+
+
+def test_a_killed_worker_is_one_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    _children_die(monkeypatch)
+    with pytest.raises(StalmError) as caught:
+        forked_map(abs, list(range(-8, 0)), 2)
+    message = str(caught.value)
+    assert re.fullmatch(
+        r"a forked predicate worker \(pid \d+\) ended without an answer: killed by SIGKILL "
+        r"\(killed, or out of memory\? predicates\.workers=1 computes without them\)",
+        message,
+    ), message
+
+
+def test_a_killed_worker_ends_a_solve_with_one_line(monkeypatch, capsys) -> None:
+    _children_die(monkeypatch)
+    args = ["solve", "P2", "--proposer", "symbolic", "--time-budget", "30"]
+    assert run_cli(monkeypatch, *args, "--set", "predicates.workers=2") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("error: a forked predicate worker (pid ")
+    assert "killed by SIGKILL" in err[-1] and not any("Traceback" in line for line in err)
+
+
+SIGNAL_AT_FORK = """
+import os, signal, sys
+from stalm.predicates.forked import forked_map
+from stalm.stopping import Stopped, stop_message, stopping_on_signals
+
+parent = os.getpid()
+fork = os.fork
+
+def fork_then_stop():  # a Ctrl-C or a group's TERM reaching the child as it is born
+    pid = fork()
+    if pid == 0:
+        os.kill(os.getpid(), signal.SIGTERM)
+    return pid
+
+os.fork = fork_then_stop
+who = lambda: "parent" if os.getpid() == parent else "child"
+with stopping_on_signals():
+    try:
+        forked_map(abs, list(range(-8, 0)), 2)
+        print(who(), "finished", flush=True)
+    except Stopped as stop:
+        print(who(), stop_message(stop), flush=True)
+    except Exception as error:
+        print(who(), type(error).__name__, error, flush=True)
+"""
+
+
+def test_a_stop_signal_at_the_fork_never_runs_the_callers_code_in_the_child() -> None:
+    """A forked child given the parent's handlers would unwind through the parent's code
+    with its :class:`~stalm.stopping.Stopped`: the command's "stopped by SIGTERM" printed
+    twice, and the parent's temporary folders removed under it."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run(
+        [sys.executable, "-c", SIGNAL_AT_FORK],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=False,
+    )
+    lines = done.stdout.splitlines()
+    assert len(lines) == 1, done.stdout + done.stderr
+    assert lines[0].startswith("parent StalmError a forked predicate worker"), lines
+    assert "killed by SIGTERM" in lines[0]
