@@ -219,13 +219,29 @@ def solve_command(
         out.print(to_yaml(resolved), highlight=False, markup=False, end="")
         return
     from stalm.motion.problem_check import check_problem_geometry
+    from stalm.predicates.stuck import goal_unreachable
 
     with console.status(f"checking {shown(loaded.name)}'s scene..."):
         check_problem_geometry(loaded)  # before the clock starts: a bad file fails at once
+        unreachable = goal_unreachable(loaded, resolved.predicates)
+    if unreachable is not None:
+        console.print(
+            f"[yellow]warning:[/] {shown(loaded.source)}: the goal cannot be reached: "
+            f"{shown(unreachable)}; the solve runs anyway (Ctrl-C stops it)",
+            highlight=False,
+            soft_wrap=True,
+        )
     note_embedded(entry.name, resolved)
     note_replay(entry.name, resolved)
     result, fallback = solve_and_report(
-        entry.name, resolved, loaded, seed, json_out, quiet=quiet, verbose=verbose
+        entry.name,
+        resolved,
+        loaded,
+        seed,
+        json_out,
+        quiet=quiet,
+        verbose=verbose,
+        unreachable=unreachable,
     )
     write_pictures(loaded, result, resolved, gif, html, gif_size=gif_size, quiet=quiet)
     if fallback is not None:

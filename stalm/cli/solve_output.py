@@ -9,6 +9,7 @@ that ``stalm rerun`` can run the trial again from the file alone.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -93,6 +94,18 @@ def print_timeout_advice(result: PlanResult, problem: Problem, settings: RunSett
     console.print(f"[yellow]timed out:[/] {shown(advice.text())}", highlight=False, soft_wrap=True)
 
 
+UNREACHABLE_GOAL = "unreachable_goal"
+"""The termination of a solve that did not reach a goal the problem check had found
+unreachable: the cause, where the run's own end ('timeout', 'horizon') is only the symptom."""
+
+
+def with_unreachable_goal(result: PlanResult, why: str) -> PlanResult:
+    """``result`` (a run that did not reach its goal) ending as :data:`UNREACHABLE_GOAL`; its
+    details keep ``why`` and how the run itself ended."""
+    details = {**result.details, "unreachable_goal": why, "run_ended_by": result.termination}
+    return replace(result, termination=UNREACHABLE_GOAL, details=details)
+
+
 def write_result_json(data: dict[str, Any], path: Path) -> Path:
     """Write a result; if ``path`` cannot be written, to a temporary file named on stderr
     (a solve's result is never lost to a bad path). Returns the file written."""
@@ -155,13 +168,17 @@ def solve_and_report(
     *,
     quiet: bool = False,
     verbose: bool = False,
+    unreachable: str | None = None,
 ) -> tuple[PlanResult, Path | None]:
     """Solve ``problem`` with the resolved ``settings``, print the result and write its
     record to ``json_out`` (also when a server stops the run: then termination 'error').
     Returns the result and the file the record went to instead of ``json_out``, if any.
 
     On a terminal a progress line shows where the solve is, unless ``quiet``
-    (:mod:`stalm.cli.solve_progress`); ``verbose`` logs each real step's decisions."""
+    (:mod:`stalm.cli.solve_progress`); ``verbose`` logs each real step's decisions.
+    ``unreachable``: why the problem check found the goal unreachable; a run that then does
+    not reach it ends as 'unreachable_goal' (:func:`with_unreachable_goal`), not as a bare
+    'timeout'."""
     from stalm.cli.solve_progress import solve_progress, verbose_logging
     from stalm.planners.registry import build_planner
     from stalm.settings.io import to_dict
@@ -194,8 +211,16 @@ def solve_and_report(
                 }
                 out.print(f"wrote {shown(write_result_json(failed, json_out))}", highlight=False)
             raise
+    if unreachable is not None and not result.success:
+        result = with_unreachable_goal(result, unreachable)
     print_result(result)
-    if result.termination == "timeout":
+    if result.termination == UNREACHABLE_GOAL:
+        console.print(
+            f"[yellow]the goal cannot be reached:[/] {shown(unreachable)}",
+            highlight=False,
+            soft_wrap=True,
+        )
+    elif result.termination == "timeout":
         print_timeout_advice(result, problem, settings)
     fallback: Path | None = None
     if json_out is not None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -37,14 +38,31 @@ def _problem_row(problem: Problem) -> tuple[str, ...]:
     return tuple(shown(cell) for cell in cells)
 
 
-def _warn_stuck(problem: Problem) -> None:
+def check_scenes(problems: list[Problem], show: Callable[[str], None]) -> None:
+    """The simulator's check of each problem's scene (a StalmError naming the faults), then a
+    warning per object no action can ever move; ``show`` hears what is being checked, object
+    by object (a scene of 500 objects takes minutes)."""
+    from stalm.motion.problem_check import check_problem_geometry
+
+    for problem in problems:
+        name = shown(problem.name)
+        show(f"checking {name}'s scene in the simulator...")
+        check_problem_geometry(problem)
+
+        def progress(done: int, total: int, name: str = name) -> None:
+            show(f"checking {name}: can each object be picked and put down? {done} of {total}")
+
+        _warn_stuck(problem, progress)
+
+
+def _warn_stuck(problem: Problem, progress: Callable[[int, int], None]) -> None:
     """A warning per object no action can ever move (a goal needing it is unreachable)."""
     from stalm.motion.base_motion import BasePlanner
     from stalm.predicates.stuck import stuck_objects
     from stalm.world.scene import Sim
 
     with Sim(problem.spec) as sim:
-        stuck = stuck_objects(problem, sim, BasePlanner(sim))
+        stuck = stuck_objects(problem, sim, BasePlanner(sim), progress=progress)
     goal_objects = {g.obj for g in problem.goal}
     for name, why in stuck.items():
         needed = " (the goal names it)" if name in goal_objects else ""
@@ -66,8 +84,9 @@ def problems_command(
         bool | None,
         typer.Option(
             "--check/--no-check",
-            help="Also check the scene in the simulator: nothing starts inside anything, every "
-            "standing pose is free and reachable (default: on for --file).",
+            help="Also check the scene in the simulator: nothing starts inside anything, no two "
+            "doors pass through each other, every standing pose is free and reachable, and "
+            "which objects can never be moved (default: on for --file).",
         ),
     ] = None,
 ) -> None:
@@ -85,12 +104,8 @@ def problems_command(
     if not problems:
         raise no_problems_error()  # an empty table would look like success
     if check if check is not None else bool(file):
-        from stalm.motion.problem_check import check_problem_geometry
-
-        with console.status("checking the scenes in the simulator..."):
-            for problem in problems:
-                check_problem_geometry(problem)
-                _warn_stuck(problem)
+        with console.status("checking the scenes in the simulator...") as status:
+            check_scenes(problems, status.update)
     if as_json:
         rows = [
             {

@@ -3,8 +3,9 @@
 Loading a problem (:mod:`stalm.world.problem_file`, with the field checks of
 :mod:`stalm.world.spec`) checks every field cheaply and stays fast. Whether
 the scene it describes is possible needs the simulator: a region standing inside a wall, an
-object or the robot starting inside a wall or another body, a standing pose the robot cannot
-stand at, or one the base can never drive to. A planner meeting such a problem fails late and
+object or the robot starting inside a wall or another body, two doors passing through each
+other (on one hinge, or swinging into each other), a standing pose the robot cannot stand at,
+or one the base can never drive to. A planner meeting such a problem fails late and
 obscurely (no path, no IK, a "collision" at step 0), so ``stalm solve`` and
 ``stalm problems --file`` run :func:`check_problem_geometry` first and name what is at fault.
 
@@ -84,6 +85,8 @@ def problem_geometry_faults(problem: Problem, settings: RoadmapSettings | None =
         hits = sim.robot_contacts()
         if hits:
             faults.append(f"robot.base: the robot starts inside {_names(sim, hits)}")
+        faults += _overlapping_doors(sim)
+        sim.set_state(problem.initial_state)
         for where, pose in _standing_poses(problem):
             sim.set_robot(RobotConf.make(pose, robot_model.CARRY_LIFT, robot_model.CARRY_ARM))
             hits = sim.robot_contacts()
@@ -109,6 +112,35 @@ def problem_geometry_faults(problem: Problem, settings: RoadmapSettings | None =
                     f"every door open: {flood.why_unreachable(pose)}"
                 )
     return faults
+
+
+DOOR_SETTINGS = ((False, False), (True, True), (False, True), (True, False))
+"""Both doors of a pair closed, both open, and each open with the other closed."""
+
+
+def _overlapping_doors(sim: Sim) -> list[str]:
+    """A fault per pair of doors whose panels pass through each other, closed or open (two
+    doors on one hinge, or swinging into each other): a state the problem can reach would
+    have one body inside another. Leaves the doors as it found none: the caller sets the
+    state again."""
+    doors = sim.problem.doors
+    faults = []
+    for j, later in enumerate(doors):
+        for i, earlier in enumerate(doors[:j]):
+            for earlier_open, later_open in DOOR_SETTINGS:
+                sim.set_door(earlier.name, earlier_open)
+                sim.set_door(later.name, later_open)
+                if sim.touches([sim.bodies.doors[later.name]], sim.bodies.doors[earlier.name]):
+                    faults.append(
+                        f"doors[{j}] ('{later.name}'): its panel {_setting(later_open)} passes "
+                        f"through doors[{i}] ('{earlier.name}') {_setting(earlier_open)}"
+                    )
+                    break
+    return faults
+
+
+def _setting(is_open: bool) -> str:
+    return "open" if is_open else "closed"
 
 
 GRID = 0.1

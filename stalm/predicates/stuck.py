@@ -4,26 +4,44 @@ An object whose every sampled pick is statically infeasible (no IK, or a motion 
 static scene), or which can be picked but put down on no region, never moves whatever the
 planner does. ``stalm problems --file`` warns about each one (a goal that needs it moved
 cannot be reached), sampling as the predicates do, with their extra draws before giving up
-(:class:`~stalm.predicates.samples.PredicateSettings`).
+(:class:`~stalm.predicates.samples.PredicateSettings`). ``stalm solve`` asks only about the
+objects its goal needs moved (:func:`goal_movers`) and, when a goal atom can then never come
+true (:func:`unreachable_goal`), says so up front and names it as the run's termination.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable, Collection, Mapping
 
 from stalm.motion.base_motion import BasePlanner
 from stalm.motion.manipulation import PARKED
 from stalm.predicates.samples import MotionSamples, PredicateSettings
 from stalm.world.problem import Problem
+from stalm.world.relations import at_position
 from stalm.world.scene import Sim
+
+CheckProgress = Callable[[int, int], None]
+"""Hears ``done`` of ``total`` objects checked (a scene of 500 objects takes minutes)."""
 
 
 def stuck_objects(
-    problem: Problem, sim: Sim, base_planner: BasePlanner, settings: PredicateSettings | None = None
+    problem: Problem,
+    sim: Sim,
+    base_planner: BasePlanner,
+    settings: PredicateSettings | None = None,
+    *,
+    names: Collection[str] | None = None,
+    progress: CheckProgress | None = None,
 ) -> dict[str, str]:
-    """Each object of the initial state that can never move, with why (in words)."""
+    """Each object of the initial state (of ``names`` only, if given) that can never move,
+    with why (in words); ``progress`` hears each object checked."""
     samples = MotionSamples(problem.spec, sim, base_planner, settings or PredicateSettings())
     state = problem.initial_state
+    poses = [(name, pose) for name, pose in state.poses if names is None or name in names]
     stuck: dict[str, str] = {}
-    for name, pose in state.poses:
+    for done, (name, pose) in enumerate(poses):
+        if progress is not None:
+            progress(done, len(poses))
         sim.set_state(state)
         record = samples.pick_record(name, pose)
         if record.grasp is None:
@@ -36,5 +54,46 @@ def stuck_objects(
             for r in regions
         ):
             stuck[name] = "it can be picked but no sampled placement on any region is feasible"
+    if progress is not None:
+        progress(len(poses), len(poses))
     sim.set_state(state)
     return stuck
+
+
+def _open_atoms(problem: Problem) -> list[tuple[int, tuple[str, ...]]]:
+    """(index, the objects whose moving could make it true) of each goal atom that the
+    initial state does not satisfy."""
+    spec, state = problem.spec, problem.initial_state
+    return [
+        (index, (atom.obj,) if atom.direction == "on" else (atom.obj, atom.ref))
+        for index, atom in enumerate(problem.goal)
+        if not at_position(spec, state, atom.obj, atom.direction, atom.ref)
+    ]
+
+
+def goal_movers(problem: Problem) -> set[str]:
+    """The objects one of which must move for each goal atom not true at the start: those
+    :func:`unreachable_goal` needs checked."""
+    return {name for _, movers in _open_atoms(problem) for name in movers}
+
+
+def unreachable_goal(problem: Problem, stuck: Mapping[str, str]) -> str | None:
+    """Why the goal can never be reached when the objects of ``stuck`` never move (one
+    line, naming the first goal atom none of whose objects can move), or None."""
+    for index, movers in _open_atoms(problem):
+        if all(name in stuck for name in movers):
+            atom = problem.goal[index]
+            why = "; ".join(f"'{name}' can never be moved: {stuck[name]}" for name in movers)
+            return f"goal[{index}] ('{atom.obj}' {atom.direction} '{atom.ref}'): {why}"
+    return None
+
+
+def goal_unreachable(problem: Problem, settings: PredicateSettings | None = None) -> str | None:
+    """:func:`unreachable_goal` with only the objects the goal needs moved checked, in a
+    scene of its own (what ``stalm solve`` asks before its clock starts)."""
+    movers = goal_movers(problem)
+    if not movers:
+        return None
+    with Sim(problem.spec) as sim:
+        stuck = stuck_objects(problem, sim, BasePlanner(sim), settings, names=movers)
+    return unreachable_goal(problem, stuck)

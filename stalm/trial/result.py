@@ -119,7 +119,9 @@ class PlanResult:
     times: PhaseTimes
     counters: Counters
     termination: str
-    """'goal', 'timeout', 'horizon' or 'no_progress'."""
+    """'goal', 'timeout', 'horizon' or 'no_progress' ('replay_failed' when the plan did not
+    replay; ``stalm solve`` names 'unreachable_goal' when its check found the goal
+    unreachable and the run did not reach it)."""
     llm_plan_failures: dict[str, int] = field(default_factory=dict)
     details: dict[str, Any] = field(default_factory=dict)
 

@@ -28,6 +28,7 @@ from pydantic import (
 from stalm.errors import StalmError
 from stalm.geometry.directions import DIRECTIONS
 from stalm.geometry.footprints import planar_footprints_overlap, rotated_half_extent
+from stalm.world.goal_consistency import goal_contradiction
 from stalm.world.spec_values import (
     MAX_FLOOR_SIDE,
     RGBA,
@@ -301,6 +302,9 @@ class ProblemSpec(_Spec):
             if goal.ref == goal.obj:
                 raise ValueError(f"goal[{index}]: an object cannot be placed relative to itself")
         assert set(DIRECTIONS) >= {g.direction for g in self.goal}
+        contradiction = goal_contradiction([(g.obj, g.direction, g.ref) for g in self.goal])
+        if contradiction is not None:
+            raise ValueError(contradiction)
         return self
 
     def _check_floor(self) -> None:

@@ -115,3 +115,45 @@ def test_problems_file_and_solve_run_the_check(problems, tmp_path, monkeypatch, 
     assert code == 2
     captured = capsys.readouterr()
     assert "robot.base" in captured.err and "plan (" not in captured.out
+
+
+def _second_door(**changes: object):
+    """A second door beside P2's kitchen door, changed by ``changes``."""
+
+    def add(d: dict) -> None:
+        door = {**d["doors"][0], "name": "second_door", **changes}
+        d["doors"].append(door)
+
+    return add
+
+
+@pytest.mark.parametrize(
+    ("changes", "fault"),
+    [
+        (
+            {},
+            "doors[1] ('second_door'): its panel closed passes through doors[0] ('kitchen_door') "
+            "closed",
+        ),
+        (  # one hinge, closing the other way: open, it crosses the other at the hinge
+            {"closed_yaw": -1.570796, "open_yaw": 3.141593},
+            "doors[1] ('second_door'): its panel open passes through doors[0] "
+            "('kitchen_door') closed",
+        ),
+        (  # a hinge of its own, whose open panel swings into the other one closed
+            {"hinge": [-2.3, -3.8], "closed_yaw": 3.141593, "open_yaw": 0.0},
+            "doors[1] ('second_door'): its panel open passes through doors[0] ('kitchen_door') "
+            "closed",
+        ),
+    ],
+)
+def test_two_doors_through_each_other(problems, tmp_path, changes, fault) -> None:
+    faults = problem_geometry_faults(_mutated(problems, tmp_path, _second_door(**changes)))
+    assert fault in faults
+
+
+def test_two_doors_apart_pass(problems, tmp_path) -> None:
+    # a door of the same shape in the east wall's middle, standing poses on the floor
+    changes = {"hinge": [4.9, 0.0], "closed_yaw": 1.570796, "open_yaw": 3.141593}
+    faults = problem_geometry_faults(_mutated(problems, tmp_path, _second_door(**changes)))
+    assert not any(f.startswith("doors[") for f in faults), faults
