@@ -108,3 +108,26 @@ def test_a_parent_gone_before_the_call_is_signalled_at_once(tmp_path: Path) -> N
     )
     assert done.returncode == 0
     assert _said(said) == ["ended by SIGTERM"]
+
+
+def test_the_watcher_signals_once_the_parent_is_another(monkeypatch) -> None:
+    """In this process, with SIGUSR1 (no test stops on it): the polling watcher signals as
+    soon as the parent is not the one named, and where the kernel would send the signal,
+    only a parent already gone is signalled at once."""
+    from stalm import stopping
+
+    heard: list[int] = []
+    previous = signal.signal(signal.SIGUSR1, lambda signum, frame: heard.append(signum))
+    try:
+        stopping._watch_parent(signal.SIGUSR1, os.getppid() + 1)  # not (or no longer) ours
+        _poll(lambda: heard == [signal.SIGUSR1], "the signal")
+        monkeypatch.setattr(stopping, "_parent_death_signal", lambda signum: True)
+        stopping.end_with_parent(signal.SIGUSR1, os.getppid())  # still ours: nothing now
+        stopping.end_with_parent(signal.SIGUSR1, os.getppid() + 1)
+        _poll(lambda: heard == [signal.SIGUSR1] * 2, "the second signal")
+        # no parent-death signal: a watcher thread (which ends at once here) and the check
+        monkeypatch.setattr(stopping, "_parent_death_signal", lambda signum: False)
+        stopping.end_with_parent(signal.SIGUSR1, os.getppid() + 1)
+        _poll(lambda: heard == [signal.SIGUSR1] * 4, "the watcher's signal and the check's")
+    finally:
+        signal.signal(signal.SIGUSR1, previous)
