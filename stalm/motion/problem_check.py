@@ -86,7 +86,8 @@ def problem_geometry_faults(problem: Problem, settings: RoadmapSettings | None =
         if hits:
             faults.append(f"robot.base: the robot starts inside {_names(sim, hits)}")
         faults += _overlapping_doors(sim)
-        sim.set_state(problem.initial_state)
+        for door in spec.doors:  # as the problem starts (the robot stays where it was)
+            sim.set_door(door.name, problem.initial_state.is_open(door.name))
         for where, pose in _standing_poses(problem):
             sim.set_robot(RobotConf.make(pose, robot_model.CARRY_LIFT, robot_model.CARRY_ARM))
             hits = sim.robot_contacts()
@@ -121,8 +122,8 @@ DOOR_SETTINGS = ((False, False), (True, True), (False, True), (True, False))
 def _overlapping_doors(sim: Sim) -> list[str]:
     """A fault per pair of doors whose panels pass through each other, closed or open (two
     doors on one hinge, or swinging into each other): a state the problem can reach would
-    have one body inside another. Leaves the doors as it found none: the caller sets the
-    state again."""
+    have one body inside another. Leaves the doors as it last set them: the caller sets them
+    back."""
     doors = sim.problem.doors
     faults = []
     for j, later in enumerate(doors):
