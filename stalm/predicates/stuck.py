@@ -5,8 +5,8 @@ static scene), or which can be picked but put down on no region, never moves wha
 planner does. ``stalm problems --file`` warns about each one (a goal that needs it moved
 cannot be reached), sampling as the predicates do, with their extra draws before giving up
 (:class:`~stalm.predicates.samples.PredicateSettings`). ``stalm solve`` asks only about the
-objects its goal needs moved (:func:`goal_movers`) and, when a goal atom can then never come
-true (:func:`unreachable_goal`), says so up front and names it as the run's termination.
+objects its goal needs moved (:func:`goal_unreachable`) and, when a goal atom can then never
+come true (:func:`unreachable_goal`), says so up front and names it as the run's termination.
 """
 
 from __future__ import annotations
@@ -71,12 +71,6 @@ def _open_atoms(problem: Problem) -> list[tuple[int, tuple[str, ...]]]:
     ]
 
 
-def goal_movers(problem: Problem) -> set[str]:
-    """The objects one of which must move for each goal atom not true at the start: those
-    :func:`unreachable_goal` needs checked."""
-    return {name for _, movers in _open_atoms(problem) for name in movers}
-
-
 def unreachable_goal(problem: Problem, stuck: Mapping[str, str]) -> str | None:
     """Why the goal can never be reached when the objects of ``stuck`` never move (one
     line, naming the first goal atom none of whose objects can move), or None."""
@@ -89,11 +83,18 @@ def unreachable_goal(problem: Problem, stuck: Mapping[str, str]) -> str | None:
 
 
 def goal_unreachable(problem: Problem, settings: PredicateSettings | None = None) -> str | None:
-    """:func:`unreachable_goal` with only the objects the goal needs moved checked, in a
-    scene of its own (what ``stalm solve`` asks before its clock starts)."""
-    movers = goal_movers(problem)
-    if not movers:
+    """:func:`unreachable_goal` with only the objects the goal needs moved checked (a
+    relative atom's reference only when its subject cannot move), in a scene of its own:
+    what ``stalm solve`` asks before its clock starts."""
+    atoms = _open_atoms(problem)
+    if not atoms:
         return None
     with Sim(problem.spec) as sim:
-        stuck = stuck_objects(problem, sim, BasePlanner(sim), settings, names=movers)
+        base_planner = BasePlanner(sim)
+        subjects = {movers[0] for _, movers in atoms}
+        stuck = stuck_objects(problem, sim, base_planner, settings, names=subjects)
+        # a reference matters only where its subject cannot move
+        references = {m[1] for _, m in atoms if len(m) > 1 and m[0] in stuck} - subjects
+        if references:
+            stuck |= stuck_objects(problem, sim, base_planner, settings, names=references)
     return unreachable_goal(problem, stuck)
