@@ -106,6 +106,11 @@ def test_a_grasp_far_outside_the_object_is_refused(problems, data) -> None:
     _refused(problems, data, PICK_BOTTLE2, "grasp.position")
 
 
+def test_a_grasp_of_an_object_the_problem_lacks_fails_at_its_precondition(problems, data) -> None:
+    data["plan"][PICK_BOTTLE2]["action"] = ["pick", "ghost"]
+    _refused(problems, data, PICK_BOTTLE2, "'ghost' is not a movable object")
+
+
 def test_a_placement_off_the_floor_is_refused(problems, data) -> None:
     data["plan"][PLACE_BOTTLE2]["placement"][0] = 40.0
     _refused(problems, data, PLACE_BOTTLE2, "placement", "floor")
