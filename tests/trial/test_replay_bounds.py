@@ -262,7 +262,7 @@ def _one_line(err: str) -> str:
 
 
 @pytest.mark.parametrize("change", [_huge_joint, _far_corner, _nan_grasp])
-def test_replay_and_view_refuse_a_forged_number_in_one_line(
+def test_replay_view_and_export_refuse_a_forged_number_in_one_line(
     monkeypatch, capsys, tmp_path, change
 ) -> None:
     path = _forged(tmp_path, change)
@@ -270,10 +270,11 @@ def test_replay_and_view_refuse_a_forged_number_in_one_line(
     captured = capsys.readouterr()
     assert "step 2" in _one_line(captured.err)
     assert "goal is reached" not in captured.out
-    page = tmp_path / "forged.html"
-    assert run_cli(monkeypatch, "view", str(path), "-o", str(page)) == 2
-    assert "step 2" in _one_line(capsys.readouterr().err)
-    assert not page.exists()
+    for command, written in (("view", "forged.html"), ("export", "forged.trajectories.json")):
+        output = tmp_path / written
+        assert run_cli(monkeypatch, command, str(path), "-o", str(output)) == 2
+        assert "step 2" in _one_line(capsys.readouterr().err)
+        assert not output.exists()
 
 
 def test_replay_refuses_a_cut_motion_with_the_step(monkeypatch, capsys, tmp_path) -> None:
