@@ -113,6 +113,7 @@ def rerun_command(
     from stalm.cli.rerun_model import model_line, rerun_llm
     from stalm.planners.registry import asks_model, planner_entry, resolve
     from stalm.settings.io import from_mapping
+    from stalm.trial.replay import read_plan
 
     if json_out is not None:
         check_output_file(json_out, "--json")
@@ -131,6 +132,10 @@ def rerun_command(
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise StalmError(f"{record_file}: seed must be a non-negative integer, got {seed!r}")
     loaded = record_problem(record, str(record_file), problem, record_file.parent)
+    try:  # the record's plan is read as replay and view read it: a forged one is refused here
+        read_plan(loaded, record.get("plan") or [])
+    except StalmError as error:
+        raise StalmError(f"{record_file}: {error}") from None
     resolved = resolve(entry.name, settings, loaded)
     console.print(
         f"re-running {shown(loaded.name)} with {entry.name}, seed {seed}, from "

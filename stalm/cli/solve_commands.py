@@ -278,7 +278,9 @@ def replay_command(
         out.print(f"[green]replayed {report.steps_executed} actions: the goal is reached[/]")
     elif report.failed_step is not None:
         out.print(
-            f"[red]step {report.failed_step + 1} fails:[/] {shown(report.reason)}", highlight=False
+            f"[red]step {report.failed_step + 1} fails:[/] {shown(report.reason)}",
+            highlight=False,
+            soft_wrap=True,  # one line, however long the reason
         )
     else:
         out.print(

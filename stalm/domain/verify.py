@@ -6,10 +6,14 @@ first, so a plan file that does not fit the world is reported, never silently ex
 
 A plan file can also be *edited*. The motions of a forged action may well be collision-free
 while the action does not do what it says: a base path that starts somewhere else than the
-robot (a teleport), a grasp nowhere near the object, a placement the hand never reaches or on
-another region, an object placed into a wall or another object. :func:`check_consistency`
-(before the action) and :func:`check_outcome` (on the state it produces) catch those; a
-sampled action passes them by construction, so they never reject a planner's own plan.
+robot (a teleport), a grasp nowhere near the object or holding it turned from how it stands, a
+placement the hand never reaches (or turned from how the hand holds the object) or on another
+region, an object placed into a wall or another object, an arm motion cut so that the
+arm jumps from the configuration it holds to the grasp (its first motion never swept).
+:func:`check_consistency` (before the action) and :func:`check_outcome` (on the state it
+produces) catch those; a sampled action passes them by construction, so they never reject a
+planner's own plan. The numbers themselves are bounded before any of this
+(:mod:`stalm.domain.plan_bounds`).
 """
 
 from __future__ import annotations
@@ -20,7 +24,16 @@ from collections.abc import Callable
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
-from stalm.geometry.transforms import Pose3, compose, wrap_angle
+from stalm.domain.plan_bounds import SWEEP_RESOLUTION
+from stalm.geometry.transforms import (
+    Pose3,
+    Quat,
+    angle_between_rotations,
+    compose,
+    matrix_from_quat,
+    wrap_angle,
+    yaw_quat,
+)
 from stalm.motion.arm_motion import first_collision, interpolate_waypoints
 from stalm.motion.base_motion import densify
 from stalm.world.relations import at_position, supporting_region
@@ -29,10 +42,15 @@ from stalm.world.spec import ProblemSpec
 from stalm.world.state import State
 
 POSE_TOLERANCE = 1e-3
-"""How close (m, rad) a path's start must be to the robot, and its end to the standing pose."""
+"""How close (m, rad) a path's start must be to the robot, and its end to the standing pose;
+and an arm motion's ends to the configurations the robot holds before and after the action."""
 REACH_TOLERANCE = 0.02
 """How close (m) the hand at a key configuration must bring the object or reach the handle:
 four times the IK's tolerance, far below what a forged value that matters would move."""
+TURN_TOLERANCE = 0.1
+"""How far (rad) the object in the hand at a key configuration may be turned from how it stands
+(a pick) or from its saved placement (a place): over three times the IK's angle tolerance
+(placed objects of committed plans are within 0.02 rad)."""
 
 
 def _split(
@@ -43,7 +61,7 @@ def _split(
 
 
 def check_action(
-    sim: Sim, state: State, action: Action, resolution: float = 0.05
+    sim: Sim, state: State, action: Action, resolution: float = SWEEP_RESOLUTION
 ) -> Infeasibility | None:
     """None if ``action``'s motions are collision-free in ``state``; else why not."""
     params = action.params
@@ -100,11 +118,21 @@ def _same_pose(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
     )
 
 
+def _same_conf(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
+    return all(abs(x - y) <= POSE_TOLERANCE for x, y in zip(a, b, strict=True))
+
+
 def _hand_at(sim: Sim, stand: tuple[float, float, float], conf: tuple[float, ...]) -> Pose3:
     """The gripper's pose with the base at ``stand`` and the lift and arm at ``conf``."""
     sim.set_base_only(stand)
     sim.set_arm(stand, conf[0], conf[1:])
     return sim.gripper_pose()
+
+
+def _turn(held: Quat, yaw: float) -> float:
+    """The angle (rad) between an orientation of a held object and the object upright at
+    ``yaw``."""
+    return angle_between_rotations(matrix_from_quat(held), matrix_from_quat(yaw_quat(yaw)))
 
 
 def _inconsistent(detail: str) -> Infeasibility:
@@ -128,6 +156,12 @@ def check_consistency(
         return _inconsistent(
             f"the base path starts at {_fmt(corners[0])}, not where the robot stands "
             f"{_fmt(state.robot.base)}"
+        )
+    first = params.arm_waypoints[0]
+    if not _same_conf(first, state.robot.joints):
+        return _inconsistent(
+            f"the arm motion starts at {_fmt(first)}, not at the configuration the robot holds "
+            f"{_fmt(state.robot.joints)}"
         )
     stand = corners[-1]
     sim.set_state(state)
@@ -160,33 +194,44 @@ def check_consistency(
         return _inconsistent(f"the base path ends at {_fmt(stand)}, not at {what}")
     if isinstance(params, PickParams):
         hand = _hand_at(sim, stand, params.grasp_conf)
-        held = compose(hand, params.grasp.pose)[0]
+        held, held_orientation = compose(hand, params.grasp.pose)
         assert isinstance(discrete, Pick)
         target = state.pose(discrete.obj)
         gap = math.dist(held, (target.x, target.y, target.z))
-        if gap > REACH_TOLERANCE:
+        if not gap <= REACH_TOLERANCE:  # NaN is no reach either
             return _inconsistent(
                 f"the saved grasp holds '{discrete.obj}' {gap:.2f} m from where it stands"
+            )
+        turn = _turn(held_orientation, target.yaw)
+        if not turn <= TURN_TOLERANCE:
+            return _inconsistent(
+                f"the saved grasp holds '{discrete.obj}' turned {turn:.2f} rad from how it stands"
             )
     elif isinstance(params, PlaceParams):
         if state.held is None:
             return _inconsistent("the hand is empty")
         hand = _hand_at(sim, stand, params.place_conf)
-        carried = compose(hand, state.held.pose)[0]
+        carried, carried_orientation = compose(hand, state.held.pose)
         placement = params.placement
         gap = math.dist(carried, (placement.x, placement.y, placement.z))
-        if gap > REACH_TOLERANCE:
-            assert isinstance(discrete, Place)
+        assert isinstance(discrete, Place)
+        if not gap <= REACH_TOLERANCE:
             return _inconsistent(
                 f"the hand at the place configuration holds '{discrete.obj}' {gap:.2f} m from "
                 f"its saved placement {discrete.direction} '{discrete.ref}'"
+            )
+        turn = _turn(carried_orientation, placement.yaw)
+        if not turn <= TURN_TOLERANCE:
+            return _inconsistent(
+                f"the hand at the place configuration holds '{discrete.obj}' turned {turn:.2f} "
+                f"rad from its saved placement {discrete.direction} '{discrete.ref}'"
             )
     else:
         assert isinstance(params, OpenParams) and isinstance(discrete, Open)
         hand = _hand_at(sim, stand, params.handle_conf)
         handle = handle_target(discrete.door, stand)
         gap = math.dist(hand[0], handle[0])
-        if gap > REACH_TOLERANCE:
+        if not gap <= REACH_TOLERANCE:
             return _inconsistent(f"the hand is {gap:.2f} m from the handle of '{discrete.door}'")
     return None
 
@@ -194,9 +239,16 @@ def check_consistency(
 def check_outcome(
     sim: Sim, problem: ProblemSpec, after: State, action: Action
 ) -> Infeasibility | None:
-    """None if the state ``action`` produced is sound: a placed object rests where the action
-    says, penetrating nothing; an opened door swings through no object."""
+    """None if the state ``action`` produced is sound: the arm motion ends in the configuration
+    the robot then holds, a placed object rests where the action says, penetrating nothing; an
+    opened door swings through no object."""
     discrete = action.discrete
+    last = action.params.arm_waypoints[-1]
+    if not _same_conf(last, after.robot.joints):
+        return _inconsistent(
+            f"the arm motion ends at {_fmt(last)}, not at the configuration the robot then "
+            f"holds {_fmt(after.robot.joints)}"
+        )
     sim.set_state(after)
     if isinstance(discrete, Place):
         if not at_position(problem, after, discrete.obj, discrete.direction, discrete.ref):

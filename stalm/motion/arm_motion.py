@@ -24,11 +24,17 @@ MAX_CARTESIAN_STEP = 0.03
 Conf = tuple[float, ...]
 
 
-def interpolate(start: Sequence[float], end: Sequence[float]) -> list[Conf]:
-    """Configurations from ``start`` to ``end`` inclusive (lift first, then 7 joints)."""
+def interpolation_steps(start: Sequence[float], end: Sequence[float]) -> int:
+    """How many steps :func:`interpolate` takes from ``start`` to ``end``: known from the two
+    configurations alone, so a motion's size can be bounded before any of it is made."""
     lift_steps = abs(end[0] - start[0]) / MAX_LIFT_STEP
     joint_steps = max(abs(b - a) for a, b in zip(start[1:], end[1:], strict=True)) / MAX_JOINT_STEP
-    steps = max(1, math.ceil(max(lift_steps, joint_steps)))
+    return max(1, math.ceil(max(lift_steps, joint_steps)))
+
+
+def interpolate(start: Sequence[float], end: Sequence[float]) -> list[Conf]:
+    """Configurations from ``start`` to ``end`` inclusive (lift first, then 7 joints)."""
+    steps = interpolation_steps(start, end)
     # the same IEEE operations as a + (b - a) * i / steps element by element, in one array op
     first, last = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
     fractions = np.arange(steps + 1, dtype=float)[:, None]
@@ -42,6 +48,11 @@ def interpolate_waypoints(waypoints: Sequence[Sequence[float]]) -> list[Conf]:
     for a, b in itertools.pairwise(waypoints):
         dense.extend(interpolate(a, b)[1:])
     return dense
+
+
+def interpolated_length(waypoints: Sequence[Sequence[float]]) -> int:
+    """``len(interpolate_waypoints(waypoints))``, counted without making the configurations."""
+    return 1 + sum(interpolation_steps(a, b) for a, b in itertools.pairwise(waypoints))
 
 
 def first_collision(

@@ -76,6 +76,19 @@ def densify(path: BasePath, resolution: float) -> list[SE2]:
     return points
 
 
+def densified_length(path: BasePath, resolution: float) -> float:
+    """``len(densify(path, resolution))``, counted from the corners without making the
+    waypoints (infinite when a corner is so far away that the count overflows)."""
+    corners = path.corners
+    if len(corners) == 1:
+        return 1
+    count = 1.0
+    for a, b in itertools.pairwise(corners):
+        steps = math.dist(a[:2], b[:2]) / resolution
+        count += max(1, math.ceil(steps)) if math.isfinite(steps) else math.inf
+    return count + (1 if path.length == 0.0 else 0)
+
+
 @dataclass
 class BasePlanner:
     """Routes the base between standing poses, one roadmap per door setting."""

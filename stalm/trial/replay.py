@@ -6,9 +6,14 @@ in a goal state, is reported as failed with the step and the reason.
 
 A result file is not trusted (:func:`replay_result_json`): the plan starts from the problem's
 own initial state (never the state stored in the file), the file's problem hash must match
-the problem's (an old file without one gets a warning), every number must be finite, and each
-step is checked as it is executed: its parameters must fit the state it is applied to and the
-state it produces must be sound (:func:`~stalm.domain.verify.check_consistency`,
+the problem's (an old file without one gets a warning), and the plan is read by
+:func:`read_plan`, the one reading of a record's plan that ``stalm replay``, ``view`` and
+``rerun`` share: every number finite, every one the robot can have in the problem's world and
+every motion of a size a replay can sweep (:mod:`stalm.domain.plan_bounds`), all before
+anything is densified. Each step is then checked as it is executed, as the planner checked it:
+its parameters must fit the state it is applied to (its base path and arm motion start where
+the robot is), its motions must be collision-free and the state it produces must be sound
+(:func:`~stalm.domain.verify.check_consistency`, :func:`~stalm.domain.verify.check_action`,
 :func:`~stalm.domain.verify.check_outcome`).
 """
 
@@ -20,6 +25,7 @@ from typing import Any
 
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
+from stalm.domain.plan_bounds import out_of_bounds
 from stalm.domain.serialize import action_from_json
 from stalm.domain.verify import check_action, check_consistency, check_outcome
 from stalm.errors import StalmError
@@ -42,7 +48,8 @@ class ReplayReport:
 
 def replay_plan(problem: Problem, start: State, actions: list[Action]) -> ReplayReport:
     """Execute ``actions`` from ``start`` in a fresh simulator, checking every step: its
-    precondition, that its parameters fit the state, its motions, and the state it makes."""
+    precondition, that its numbers are bounded (actions not read by :func:`read_plan` are
+    checked here), that its parameters fit the state, its motions, and the state it makes."""
     domain = Domain.create(problem)
     spec = problem.spec
     try:
@@ -50,6 +57,7 @@ def replay_plan(problem: Problem, start: State, actions: list[Action]) -> Replay
         states = [state]
         for index, action in enumerate(actions):
             why = domain.precondition_failure(state, action.discrete)
+            why = why or out_of_bounds(spec, action)
             if why is None:
                 failure = check_consistency(
                     domain.sim, spec, state, action, domain.samplers.handle_target
@@ -96,17 +104,29 @@ def replay_result_json(problem: Problem, data: dict[str, Any]) -> ReplayReport:
             "the file's initial_state is not the problem's; the plan is replayed from the "
             "problem's initial state"
         )
-    plan = data.get("plan")
+    actions = read_plan(problem, data.get("plan"))
+    report = replay_plan(problem, problem.initial_state, actions)
+    return dataclasses.replace(report, warnings=tuple(warnings))
+
+
+def read_plan(problem: Problem, plan: object) -> list[Action]:
+    """The executed plan of a result record for ``problem``, each step parsed
+    (:func:`~stalm.domain.serialize.action_from_json`) and its numbers bounded by the problem's
+    world and the robot (:func:`~stalm.domain.plan_bounds.out_of_bounds`) before anything is
+    built from it; a StalmError names the first step that is not, and why."""
     if not isinstance(plan, list):
         raise StalmError("not a stalm result file: no 'plan' list")
     actions = []
     for index, item in enumerate(plan):
         try:
-            actions.append(action_from_json(item))
+            action = action_from_json(item)
         except StalmError as error:
             raise StalmError(f"step {index + 1} of the plan: {error}") from None
-    report = replay_plan(problem, problem.initial_state, actions)
-    return dataclasses.replace(report, warnings=tuple(warnings))
+        why = out_of_bounds(problem.spec, action)
+        if why is not None:
+            raise StalmError(f"step {index + 1} of the plan: {why}")
+        actions.append(action)
+    return actions
 
 
 def _is_state(data: object, state: State) -> bool:

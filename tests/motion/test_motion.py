@@ -5,10 +5,17 @@ import math
 
 import numpy as np
 import pybullet as p
+import pytest
 
 from stalm.geometry.transforms import gripper_rotation, quat_from_matrix
-from stalm.motion.arm_motion import MAX_JOINT_STEP, MAX_LIFT_STEP, interpolate
-from stalm.motion.base_motion import BasePath, densify
+from stalm.motion.arm_motion import (
+    MAX_JOINT_STEP,
+    MAX_LIFT_STEP,
+    interpolate,
+    interpolate_waypoints,
+    interpolated_length,
+)
+from stalm.motion.base_motion import BasePath, densified_length, densify
 from stalm.motion.ik import solve_ik
 from stalm.motion.roadmap import (
     FootprintChecker,
@@ -98,6 +105,37 @@ def test_arm_interpolation_steps_are_small_enough() -> None:
     for a, b in itertools.pairwise(confs):
         assert abs(b[0] - a[0]) <= MAX_LIFT_STEP + 1e-12
         assert max(abs(y - x) for x, y in zip(a[1:], b[1:], strict=True)) <= MAX_JOINT_STEP + 1e-12
+
+
+@pytest.mark.parametrize(
+    "corners",
+    [
+        ((0.0, 0.0, 0.0),),
+        ((1.0, 1.0, 0.0), (1.0, 1.0, 3.0)),
+        ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (1.0, 1.0, math.pi / 2)),
+        ((-4.5, -4.5, 0.0), (4.5, 4.5, 0.0), (-4.5, 4.5, 1.0), (0.0, 0.0, -3.0)),
+    ],
+)
+def test_a_densified_path_is_counted_before_it_is_made(corners) -> None:
+    path = BasePath(corners)
+    for resolution in (0.05, 0.6):
+        assert densified_length(path, resolution) == len(densify(path, resolution))
+
+
+def test_a_path_too_far_to_count_counts_as_infinite() -> None:
+    path = BasePath(((0.0, 0.0, 0.0), (1e308, -1e308, 0.0)))
+    assert densified_length(path, 0.05) == math.inf
+
+
+def test_an_arm_motion_is_counted_before_it_is_made() -> None:
+    waypoints = [
+        (0.85, 0.0, -1.7, 0.0, -3.0, 0.0, 1.5, 0.785),
+        (0.8, 0.0, -1.7, 0.0, -3.0, 0.0, 1.5, 0.785),
+        (0.8, 1.0, 0.5, -0.4, -1.0, 0.3, 2.0, 0.0),
+        (0.8, 1.0, 0.5, -0.4, -1.0, 0.3, 2.0, 0.0),
+    ]
+    for end in range(1, len(waypoints) + 1):
+        assert interpolated_length(waypoints[:end]) == len(interpolate_waypoints(waypoints[:end]))
 
 
 def test_ik_reaches_a_reachable_gripper_pose_and_is_deterministic(domain_factory) -> None:
