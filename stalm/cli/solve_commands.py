@@ -14,6 +14,7 @@ from stalm.cli.settings_options import SET_HELP, SETTINGS_HELP, command_settings
 from stalm.cli.solve_output import (
     console,
     note_embedded,
+    note_relevant_only,
     note_replay,
     out,
     solve_and_report,
@@ -233,6 +234,7 @@ def solve_command(
         )
     note_embedded(entry.name, resolved)
     note_replay(entry.name, resolved)
+    note_relevant_only(loaded, settings, resolved)
     result, fallback = solve_and_report(
         entry.name,
         resolved,

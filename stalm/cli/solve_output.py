@@ -140,6 +140,20 @@ def note_embedded(planner: str, settings: RunSettings) -> None:
         console.print(f"[yellow]note:[/] {shown(backend.description)}", highlight=False)
 
 
+def note_relevant_only(problem: Problem, given: RunSettings, resolved: RunSettings) -> None:
+    """Say so, in one line, when a problem's size turned relevant-only predicates on."""
+    if given.predicates.relevant_only or not resolved.predicates.relevant_only:
+        return
+    console.print(
+        f"[yellow]note:[/] {len(problem.spec.objects)} objects, more than "
+        f"predicates.relevant_above ({given.predicates.relevant_above}): occlusions only for "
+        "the objects a plan must touch (predicates.relevant_only); --set "
+        "predicates.relevant_above=null for the paper's",
+        highlight=False,
+        soft_wrap=True,
+    )
+
+
 def note_replay(planner: str, settings: RunSettings) -> None:
     """Say whose replies a replay serves (a model name alone does not tell) and from where."""
     from stalm.llm.backends.identity import spec_identity

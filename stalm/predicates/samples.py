@@ -74,6 +74,13 @@ class PredicateSettings:
     of the goal's objects at their goal (where an occluder is put down is left to Concretize,
     which checks it). A scene of many objects with a few goal objects then costs about what a
     small one does (``PredicateEngine``)."""
+    relevant_above: int | None = 64
+    """Beyond the paper: on a problem of more movable objects than this, the predicates are
+    relevant-only whatever ``relevant_only`` says (None: never). The paper's predicates sweep
+    every object's picks and placements, and past about a hundred objects they alone outrun a
+    budget while a plan touches a handful (a generated 120-object problem spent 205 s of its
+    300 s on them and timed out; relevant-only, it solved in 42 s). P1-P6 (at most 24 objects)
+    and the scale suite up to 64 keep the paper's (:meth:`for_objects`)."""
     workers: int = 1
     """Processes for a state's full computation (beyond the paper; 1: the trial's own only).
     Forked copies of the process each sample a share of the actions
@@ -88,11 +95,25 @@ class PredicateSettings:
 
     def __post_init__(self) -> None:
         check_process_count("setting predicates.workers", self.workers)
+        above = self.relevant_above
+        whole = isinstance(above, int) and not isinstance(above, bool)
+        if above is not None and not (whole and above >= 0):
+            raise StalmError(
+                "setting predicates.relevant_above must be a whole number of objects (0 or "
+                f"more) or null (never), got {above!r}"
+            )
         if self.engine not in ENGINES:
             raise StalmError(
                 f"setting predicates.engine must be one of {', '.join(ENGINES)}, got "
                 f"{self.engine!r}"
             )
+
+    def for_objects(self, count: int) -> PredicateSettings:
+        """These settings on a problem of ``count`` movable objects: relevant-only above
+        ``relevant_above`` (the same settings otherwise, and when they already are)."""
+        if self.relevant_only or self.relevant_above is None or count <= self.relevant_above:
+            return self
+        return replace(self, relevant_only=True)
 
 
 @dataclass(frozen=True)

@@ -334,9 +334,9 @@ class RunSettings:
 
     def resolved(self, planner: str, problem: Problem | None = None) -> RunSettings:
         """This tree with every None that :class:`RunSettings` decides replaced by the value
-        ``planner`` (on ``problem``, for the budget) runs with. Resolving twice changes
-        nothing; the language model's Nones are the registry's (it knows which planners ask
-        one)."""
+        ``planner`` (on ``problem``, for the budget and the predicates' scope) runs with.
+        Resolving twice changes nothing; the language model's Nones are the registry's (it
+        knows which planners ask one)."""
         feedback = self.feedback()
         execution = replace(
             self.execution, feedback=feedback, backtracks=self.execution.backtracks_for(feedback)
@@ -345,7 +345,9 @@ class RunSettings:
         if sims is None and planner in DEFAULT_SIMS:
             sims = DEFAULT_SIMS[planner]
         budget = self.budget
+        predicates = self.predicates
         if problem is not None:
+            predicates = predicates.for_objects(len(problem.spec.objects))
             budget = BudgetSection(
                 time_budget_s=(
                     budget.time_budget_s
@@ -355,7 +357,11 @@ class RunSettings:
                 horizon=budget.horizon if budget.horizon is not None else problem.horizon,
             )
         return replace(
-            self, budget=budget, search=replace(self.search, sims=sims), execution=execution
+            self,
+            budget=budget,
+            search=replace(self.search, sims=sims),
+            execution=execution,
+            predicates=predicates,
         )
 
 

@@ -69,7 +69,7 @@ def timeout_advice(
 def _setting_for(
     phase: str, settings: RunSettings, objects: int, asks_model: bool | None
 ) -> tuple[str, str]:
-    predicates, section = settings.predicates, settings.proposer
+    predicates, section = settings.predicates.for_objects(objects), settings.proposer
     symbolic = not (section.asks_model() if asks_model is None else asks_model)
     relevant = (
         "--set predicates.relevant_only=true",

@@ -168,7 +168,7 @@ def test_without_verbose_the_decisions_are_not_logged(monkeypatch, capsys) -> No
 # ---------------------------------------------------------------------- timeouts
 def test_predicates_that_took_the_time_ask_for_relevant_only() -> None:
     times = PhaseTimes(predicates=250.0, proposer=30.0, total=300.0)
-    advice = timeout_advice(times, RunSettings(), objects=120)
+    advice = timeout_advice(times, RunSettings(), objects=60)
     assert advice.phase == "predicates"
     assert advice.setting == "--set predicates.relevant_only=true"
     assert "predicates took 250.0 s (83% of the time)" in advice.text()
@@ -176,9 +176,15 @@ def test_predicates_that_took_the_time_ask_for_relevant_only() -> None:
 
 def test_fast_downward_that_took_the_time_on_many_objects_asks_for_relevant_only() -> None:
     times = PhaseTimes(predicates=60.0, proposer=230.0, total=300.0)
-    advice = timeout_advice(times, RunSettings(), 120, asks_model=False)
+    advice = timeout_advice(times, RunSettings(), 60, asks_model=False)
     assert advice.phase == "proposer"
     assert advice.setting == "--set predicates.relevant_only=true"
+
+
+def test_above_relevant_above_the_predicates_are_relevant_only_and_the_advice_moves_on() -> None:
+    # 120 objects: more than predicates.relevant_above (64), so relevant-only already
+    times = PhaseTimes(predicates=250.0, proposer=30.0, total=300.0)
+    assert timeout_advice(times, RunSettings(), 120).setting == "--set predicates.workers=N"
 
 
 def test_with_relevant_only_on_the_advice_moves_on() -> None:
