@@ -10,6 +10,7 @@ from rich.table import Table
 
 from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
+from stalm.cli.physics_report import check_tolerance, print_physics
 from stalm.cli.settings_options import SET_HELP, SETTINGS_HELP, command_settings, given
 from stalm.cli.solve_output import (
     console,
@@ -24,12 +25,18 @@ from stalm.cli.solve_output import (
 from stalm.errors import StalmError
 from stalm.files import read_json_file
 from stalm.viz.sizes import GIF_SIZE, MAX_SIZE, MIN_SIZE, check_size
+from stalm.world.physics_check import SETTLE_SECONDS, TOLERANCE_DEG, TOLERANCE_M
 from stalm.world.problem import load_problem
 from stalm.world.problem_record import RECORD_PROBLEM_HELP, record_problem
 
 GIF_SIZE_HELP = (
     f"Pixels of each of the animation's two square views (the GIF is twice as wide; "
     f"{MIN_SIZE} to {MAX_SIZE})."
+)
+PHYSICS_HELP = (
+    f"Then run the plan under gravity: after each action the world settles {SETTLE_SECONDS:g} s "
+    "and every object's move from where the plan puts it is measured; exit 1 beyond the "
+    "tolerance."
 )
 QUIET_HELP = (
     "Show no progress line while solving (it is shown only on a terminal: never in a pipe "
@@ -262,10 +269,21 @@ def replay_command(
         Path | None, typer.Option("--gif", help="Write an animation of the plan.")
     ] = None,
     gif_size: Annotated[int, typer.Option("--gif-size", help=GIF_SIZE_HELP)] = GIF_SIZE,
+    physics: Annotated[bool, typer.Option("--physics", help=PHYSICS_HELP)] = False,
+    physics_tolerance_m: Annotated[
+        float,
+        typer.Option(help="With --physics: how far an object may move (m, positive)."),
+    ] = TOLERANCE_M,
+    physics_tolerance_deg: Annotated[
+        float,
+        typer.Option(help="With --physics: how far an object may tilt (degrees, positive)."),
+    ] = TOLERANCE_DEG,
 ) -> None:
     """Re-execute a saved plan in a fresh scene and check that it reaches the goal."""
     from stalm.trial.replay import replay_result_json
 
+    check_tolerance(physics_tolerance_m, "--physics-tolerance-m")
+    check_tolerance(physics_tolerance_deg, "--physics-tolerance-deg")
     if gif is not None:
         check_output_file(gif, "--gif")
         check_size(gif_size, "--gif-size")
@@ -294,6 +312,21 @@ def replay_command(
         write_plan_gif(loaded, report.states[0], pairs, gif, gif_size)
     if not report.reached_goal:
         raise typer.Exit(1)
+    if physics:
+        from stalm.world.physics_check import check_physics
+
+        with console.status("settling each step under gravity..."):
+            labels = [str(action) for action in report.actions]
+            checked = check_physics(
+                loaded,
+                report.states,
+                labels,
+                tolerance_m=physics_tolerance_m,
+                tolerance_deg=physics_tolerance_deg,
+            )
+        print_physics(checked)
+        if not checked.passed:
+            raise typer.Exit(1)
 
 
 @commands.command("planners")

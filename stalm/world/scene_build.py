@@ -152,6 +152,14 @@ def _door_body(client: int, door: DoorSpec) -> int:
 
 def _object_body(client: int, obj: ObjectSpec) -> int:
     """Object frame origin at the centre of its bottom face, so z is the support height."""
+    col, vis = object_shapes(client, obj)
+    return int(p.createMultiBody(0.1, col, vis, [0, 0, -10.0], physicsClientId=client))
+
+
+def object_shapes(client: int, obj: ObjectSpec) -> tuple[int, int]:
+    """The collision and visual shapes of ``obj`` in ``client``, placed in the object's frame
+    (origin at the centre of its bottom face): the planner's scene and the physics check of
+    a plan build every object from these same shapes."""
     c = client
     color = list(obj.color)
     if obj.shape == "grill":
@@ -196,7 +204,7 @@ def _object_body(client: int, obj: ObjectSpec) -> int:
             visualFramePosition=[0, 0, obj.height / 2],
             physicsClientId=c,
         )
-    return int(p.createMultiBody(0.1, col, vis, [0, 0, -10.0], physicsClientId=c))
+    return int(col), int(vis)
 
 
 def _build_robot(client: int, bodies: Bodies) -> None:
