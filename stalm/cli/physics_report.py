@@ -1,19 +1,37 @@
-"""``stalm replay --physics``: its options checked, and its report printed, one line a step."""
+"""``stalm replay --physics`` and ``stalm solve --physics``: the options checked, the check run
+and its report printed, one line a step."""
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
+
+from rich.console import Console
 
 from stalm.cli.display import shown
-from stalm.cli.solve_output import out
 from stalm.errors import StalmError
-from stalm.world.physics_check import PhysicsReport, StepCheck
+from stalm.world.physics_check import PhysicsReport, StepCheck, check_physics
+from stalm.world.problem import Problem
+
+if TYPE_CHECKING:
+    from stalm.trial.result import PlanResult
+
+console = Console(stderr=True)
+out = Console()
 
 
 def check_tolerance(value: float, option: str) -> None:
     """A tolerance must be a positive finite number; a StalmError names the option if not."""
     if not (math.isfinite(value) and value > 0):
         raise StalmError(f"{option} must be a positive number, not {value:g}")
+
+
+def physics_of(problem: Problem, result: PlanResult) -> PhysicsReport:
+    """The physics check of a solved plan's executed states, printed."""
+    with console.status("settling each step under gravity..."):
+        checked = check_physics(problem, result.states, [str(a) for a in result.plan])
+    print_physics(checked)
+    return checked
 
 
 def print_physics(report: PhysicsReport) -> None:

@@ -147,7 +147,7 @@ def rerun_command(
         console.print(shown(line), highlight=False, soft_wrap=True)
         if not resolved.llm.from_record:
             note_embedded(entry.name, resolved)
-    result, fallback = solve_and_report(entry.name, resolved, loaded, seed, json_out)
+    result, fallback, _ = solve_and_report(entry.name, resolved, loaded, seed, json_out)
     now = json.loads(json.dumps(result.to_json()["plan"]))
     recorded = record.get("plan") or []
     differs = first_difference(recorded, now)

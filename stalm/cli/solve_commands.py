@@ -38,6 +38,10 @@ PHYSICS_HELP = (
     "and every object's move from where the plan puts it is measured; exit 1 beyond the "
     "tolerance."
 )
+PHYSICS_SOLVE_HELP = (
+    "Then settle the solved plan under gravity as `stalm replay --physics` does (1 cm, 5 deg), "
+    "record it in --json as 'physics', and exit 1 if an object moves further."
+)
 QUIET_HELP = (
     "Show no progress line while solving (it is shown only on a terminal: never in a pipe "
     "or a file)."
@@ -185,6 +189,7 @@ def solve_command(
     ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help=QUIET_HELP)] = False,
     verbose: Annotated[bool, typer.Option("--verbose", "-v", help=VERBOSE_HELP)] = False,
+    physics: Annotated[bool, typer.Option("--physics", help=PHYSICS_SOLVE_HELP)] = False,
 ) -> None:
     """Solve a problem with STaLM (or a baseline) and execute the plan in simulation."""
     from stalm.planners.registry import planner_entry, resolve
@@ -242,7 +247,7 @@ def solve_command(
     note_embedded(entry.name, resolved)
     note_replay(entry.name, resolved)
     note_relevant_only(loaded, settings, resolved)
-    result, fallback = solve_and_report(
+    result, fallback, checked = solve_and_report(
         entry.name,
         resolved,
         loaded,
@@ -251,11 +256,12 @@ def solve_command(
         quiet=quiet,
         verbose=verbose,
         unreachable=unreachable,
+        physics=physics,
     )
     write_pictures(loaded, result, resolved, gif, html, gif_size=gif_size, quiet=quiet)
     if fallback is not None:
         raise StalmError(f"--json {json_out} could not be written; the result is in {fallback}")
-    if not result.success:
+    if not result.success or (checked is not None and not checked.passed):
         raise typer.Exit(1)
 
 

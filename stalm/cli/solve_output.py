@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from stalm.domain.params import Action
     from stalm.settings.tree import RunSettings
     from stalm.trial.result import PlanResult
+    from stalm.world.physics_check import PhysicsReport
     from stalm.world.state import State
 
 console = Console(stderr=True)
@@ -183,7 +184,8 @@ def solve_and_report(
     quiet: bool = False,
     verbose: bool = False,
     unreachable: str | None = None,
-) -> tuple[PlanResult, Path | None]:
+    physics: bool = False,
+) -> tuple[PlanResult, Path | None, PhysicsReport | None]:
     """Solve ``problem`` with the resolved ``settings``, print the result and write its
     record to ``json_out`` (also when a server stops the run: then termination 'error').
     Returns the result and the file the record went to instead of ``json_out``, if any.
@@ -192,7 +194,9 @@ def solve_and_report(
     (:mod:`stalm.cli.solve_progress`); ``verbose`` logs each real step's decisions.
     ``unreachable``: why the problem check found the goal unreachable; a run that then does
     not reach it ends as 'unreachable_goal' (:func:`with_unreachable_goal`), not as a bare
-    'timeout'."""
+    'timeout'. ``physics``: a plan that reaches the goal is then settled under gravity
+    (:func:`~stalm.world.physics_check.check_physics`), printed, recorded as ``physics`` and
+    returned."""
     from stalm.cli.solve_progress import solve_progress, verbose_logging
     from stalm.planners.registry import build_planner
     from stalm.settings.io import to_dict
@@ -236,12 +240,20 @@ def solve_and_report(
         )
     elif result.termination == "timeout":
         print_timeout_advice(result, problem, settings)
+    checked = None
+    if physics and result.success:
+        from stalm.cli.physics_report import physics_of
+
+        checked = physics_of(problem, result)
     fallback: Path | None = None
     if json_out is not None:
-        written = write_result_json(result_record(result, problem, settings), json_out)
+        record = result_record(result, problem, settings)
+        if checked is not None:
+            record["physics"] = checked.to_json()
+        written = write_result_json(record, json_out)
         out.print(f"wrote {shown(written)}", highlight=False)
         fallback = written if written != json_out else None
-    return result, fallback
+    return result, fallback, checked
 
 
 def write_pictures(

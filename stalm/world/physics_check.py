@@ -94,6 +94,29 @@ class PhysicsReport:
         """The first step with an object beyond the tolerance."""
         return next((step for step in self.steps if step.beyond is not None), None)
 
+    def to_json(self) -> dict[str, object]:
+        """What a result record keeps of the check: the verdict, its terms, each step."""
+
+        def drift(d: ObjectDrift | None) -> dict[str, object] | None:
+            return None if d is None else {"obj": d.obj, "m": d.displacement_m, "deg": d.tilt_deg}
+
+        return {
+            "passed": self.passed,
+            "failure": self.failure_line(),
+            "tolerance_m": self.tolerance_m,
+            "tolerance_deg": self.tolerance_deg,
+            "settle_seconds": self.settle_seconds,
+            "steps": [
+                {
+                    "step": step.step,
+                    "label": step.label,
+                    "largest_move": drift(step.largest_move),
+                    "largest_tilt": drift(step.largest_tilt),
+                }
+                for step in self.steps
+            ],
+        }
+
     def failure_line(self) -> str | None:
         """One line naming the failing step and object, or None if the check passed."""
         step = self.failure

@@ -173,3 +173,22 @@ def test_a_step_where_nothing_rests_is_said_so(capsys) -> None:
     print_physics(PhysicsReport((held,), TOLERANCE_M, TOLERANCE_DEG, 1.0))
     out = capsys.readouterr().out
     assert "step 1 (pick(can)): no object rests" in out and "physics check passed" in out
+
+
+def test_solve_physics_records_the_check_and_the_record_replays_it(
+    monkeypatch, capsys, tmp_path: Path
+) -> None:
+    """``stalm solve P2 --physics``: the solved plan is settled, printed and recorded; the
+    record then passes ``stalm replay --physics`` with the same steps."""
+    record = tmp_path / "p2.json"
+    code = run_cli(monkeypatch, "solve", "P2", "--physics", "--json", str(record), "--quiet")
+    assert code == 0
+    assert "physics check passed" in capsys.readouterr().out
+    data = json.loads(record.read_text())
+    physics = data["physics"]
+    assert physics["passed"] is True and physics["failure"] is None
+    assert physics["tolerance_m"] == TOLERANCE_M and physics["tolerance_deg"] == TOLERANCE_DEG
+    assert len(physics["steps"]) == data["plan_length"] + 1
+    assert all(step["largest_move"]["m"] < TOLERANCE_M for step in physics["steps"])
+    assert run_cli(monkeypatch, "replay", str(record), "--physics") == 0
+    assert "physics check passed" in capsys.readouterr().out
