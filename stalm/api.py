@@ -1,5 +1,6 @@
 """The Python API: what a script needs to load a problem, build and run a planner, inspect
-the result, replay it, and plug in its own task-plan proposer.
+the result, replay it (:func:`check_physics` then settles the replayed states under gravity,
+as ``stalm replay --physics`` does), and plug in its own task-plan proposer.
 
 Everything here is re-exported from the module that owns it, so this file is the one place
 to look (and the one the README's examples import from); it imports the planners, so it sits
@@ -38,6 +39,7 @@ from stalm.settings.planner_config import PlannerConfig
 from stalm.settings.tree import RunSettings
 from stalm.trial.replay import ReplayReport, replay_plan
 from stalm.trial.result import PlanResult
+from stalm.world.physics_check import PhysicsReport, check_physics
 from stalm.world.problem import Problem, load_problem
 from stalm.world.problem_file import parse_problem
 from stalm.world.spec import (
@@ -61,6 +63,7 @@ __all__ = [
     "NoisyProposer",
     "ObjectSpec",
     "Open",
+    "PhysicsReport",
     "Pick",
     "Place",
     "PlanResult",
@@ -79,6 +82,7 @@ __all__ = [
     "TaskPlanProposer",
     "WallSpec",
     "build_planner",
+    "check_physics",
     "check_problem_geometry",
     "load_problem",
     "parse_problem",

@@ -37,7 +37,10 @@ def _replayed(problem, record: Path):
 def test_a_real_plan_keeps_every_object_where_it_put_it(problems, name, record) -> None:
     replay = _replayed(problems[name], record)
     assert replay.reached_goal
-    report = check_physics(problems[name], replay.states, [str(a) for a in replay.actions])
+    from stalm import api
+
+    report = api.check_physics(problems[name], replay.states, [str(a) for a in replay.actions])
+    assert isinstance(report, api.PhysicsReport)
     assert report.passed and report.failure_line() is None
     assert len(report.steps) == len(replay.states)  # the initial state, then each action
     assert report.steps[0].label == "the initial state"
