@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -141,6 +142,14 @@ def experiment_command(
         list[str] | None,
         typer.Option("--set", help=SET_HELP + " For every row; a row's own settings still win."),
     ] = None,
+    physics: Annotated[
+        bool,
+        typer.Option(
+            "--physics",
+            help="Settle each solved plan under gravity (as stalm replay --physics) and record "
+            "the check in its trial's record as 'physics'.",
+        ),
+    ] = False,
 ) -> None:
     """Run a paper experiment's trials; re-running the same command resumes it."""
     from stalm.cores import check_process_count
@@ -168,6 +177,8 @@ def experiment_command(
     )
     _check_model_rows(plan.arms)
     specs = trial_specs(plan)
+    if physics:
+        specs = [dataclasses.replace(spec, physics=True) for spec in specs]
     # the noisy proposer's Table 3 is a table of its own, not rows added to the model's
     stem = f"{name}-noisy" if name == "table3" and base.proposer.kind == "noisy" else name
     path = results or Path("results") / f"{stem}.jsonl"

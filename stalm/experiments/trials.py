@@ -30,6 +30,7 @@ from stalm.settings.io import changed, to_dict
 from stalm.settings.planner_config import PlannerConfig
 from stalm.settings.tree import FLAT_NAMES, RunSettings, with_budget
 from stalm.temp_folders import temporary_folder
+from stalm.world.physics_check import check_physics
 from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
 
 RECORD_VERSION = 1
@@ -69,6 +70,10 @@ class TrialSpec:
     fields: tuple[tuple[str, object], ...] = ()
     """Fields the record carries besides the usual ones (a suite's name, the problem's
     number of objects); they describe the problem, so they are not in the key."""
+    physics: bool = False
+    """Settle a solved plan under gravity and record the check as ``physics``
+    (:func:`~stalm.world.physics_check.check_physics`). Not in the key: it measures the plan
+    and changes nothing the planner does."""
 
     @property
     def key(self) -> str:
@@ -178,6 +183,9 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
                 "finished_at": time.time(),
             }
     data = result.to_json()
+    if spec.physics and result.success:
+        labels = [str(action) for action in result.plan]
+        base["physics"] = check_physics(problem, result.states, labels).to_json()
     return base | {
         PROBLEM_HASH_FIELD: problem.content_hash,
         "success": data["success"],

@@ -195,3 +195,18 @@ def test_solve_physics_records_the_check_and_the_record_replays_it(
     assert all(step["largest_move"]["m"] < TOLERANCE_M for step in physics["steps"])
     assert run_cli(monkeypatch, "replay", str(record), "--physics") == 0
     assert "physics check passed" in capsys.readouterr().out
+
+
+def test_an_experiment_records_the_check_with_physics(monkeypatch, tmp_path: Path) -> None:
+    """``stalm experiment --physics``: each solved trial's record carries the check; the
+    trial's key is the one it has without (the check changes nothing the planner does)."""
+    args = ("experiment", "table2", "--problems", "P2", "--planners", "stalm-symbolic")
+    checked, plain = tmp_path / "physics.jsonl", tmp_path / "plain.jsonl"
+    assert run_cli(monkeypatch, *args, "--trials", "1", "--physics", "--results", str(checked)) == 0
+    [record] = [json.loads(line) for line in checked.read_text().splitlines()]
+    assert record["success"] is True
+    assert record["physics"]["passed"] is True and record["physics"]["failure"] is None
+    assert len(record["physics"]["steps"]) == record["plan_length"] + 1
+    assert run_cli(monkeypatch, *args, "--trials", "1", "--results", str(plain)) == 0
+    [without] = [json.loads(line) for line in plain.read_text().splitlines()]
+    assert "physics" not in without and without["key"] == record["key"]
