@@ -7,7 +7,8 @@ build_bodies`, :func:`~stalm.world.scene_build.object_shapes`), gravity on:
 
 - every movable object is dynamic, with a mass (:data:`MASS_KG`) at the centroid of its shape
   (the planner's bodies keep theirs at the bottom face, which would make everything stable);
-  walls, regions, doors and the robot are fixed;
+  walls, regions, doors and the robot's base are fixed, and the arm (a fixed-base body) is
+  held in each configuration by PyBullet's default joint motors;
 - the robot is set kinematically to each executed state (its motions are swept for collisions
   by the replay, not simulated), and the held object is pinned at the hand's grasp pose by a
   ``JOINT_FIXED`` constraint to the world: the hand does not move while the world settles, and
@@ -34,6 +35,7 @@ import pybullet as p
 from stalm.geometry.transforms import yaw_quat
 from stalm.world import robot as robot_model
 from stalm.world.problem import Problem
+from stalm.world.scene import ARM_JOINTS, GRASP_LINK
 from stalm.world.scene_build import FINGER_JOINTS, build_bodies, object_shapes
 from stalm.world.spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
 from stalm.world.state import ObjectPose, State
@@ -51,9 +53,6 @@ TOLERANCE_DEG = 5.0
 MASS_KG = {"cylinder": 0.3, "disc": 0.2, "grill": 4.0}
 """Mass per shape: a full drinks can or bottle, a plate, a small table grill. Resting
 stability depends on shape and centre of mass, not on mass, so one figure per shape does."""
-GRASP_LINK = 11
-"""The Panda's ``panda_grasptarget`` link, which grasps are expressed in."""
-ARM_JOINTS = list(range(7))
 
 
 @dataclass(frozen=True)
