@@ -17,6 +17,8 @@ import os
 import re
 import shutil
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 KINDS = ("trial", "fd", "pddlstream", "ray")
@@ -26,12 +28,26 @@ Downward run, a Ray task's copy of the reply cache."""
 _NAME = re.compile(rf"stalm-(?:{'|'.join(KINDS)})-([0-9]{{1,10}})-")
 
 
-def temporary_folder(kind: str) -> tempfile.TemporaryDirectory[str]:
+@contextmanager
+def temporary_folder(kind: str) -> Iterator[str]:
     """A new temporary folder for ``kind`` (one of :data:`KINDS`) named with this process's
-    id, removed when its ``with`` block ends."""
+    id, removed when its ``with`` block ends.
+
+    A stop signal raises :class:`~stalm.stopping.Stopped` wherever the process is, also in
+    the middle of removing the folder as its block ends normally; the removal is then done
+    again (the handler ignores every later stop signal, so the second one runs to its end)
+    before the stop goes on. A folder cut half-removed was left behind otherwise."""
     if kind not in KINDS:
         raise ValueError(f"unknown kind of temporary folder {kind!r}")
-    return tempfile.TemporaryDirectory(prefix=f"stalm-{kind}-{os.getpid()}-")
+    path = tempfile.mkdtemp(prefix=f"stalm-{kind}-{os.getpid()}-")
+    try:
+        yield path
+    finally:
+        try:
+            shutil.rmtree(path, ignore_errors=True)
+        except BaseException:
+            shutil.rmtree(path, ignore_errors=True)
+            raise
 
 
 def process_alive(pid: int) -> bool:

@@ -33,8 +33,36 @@ def test_a_folder_is_named_with_its_kind_and_process(monkeypatch, tmp_path: Path
         assert remove_leftovers(tmp_path) == []  # its process is this one: alive
         assert Path(folder).is_dir()
     assert not Path(folder).exists()
-    with pytest.raises(ValueError, match="kind"):
-        temporary_folder("other")
+    with pytest.raises(ValueError, match="kind"), temporary_folder("other"):
+        pass
+
+
+def test_a_stop_in_the_middle_of_the_removal_still_removes_the_folder(
+    monkeypatch, tmp_path: Path
+) -> None:
+    """A TERM that arrives while the folder is being removed raises Stopped inside the
+    removal; the folder is removed all the same, and the stop goes on."""
+    import shutil
+
+    from stalm.stopping import Stopped
+
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    real = shutil.rmtree
+    calls: list[str] = []
+
+    def rmtree_stopped_once(path: str, ignore_errors: bool = False) -> None:
+        calls.append(path)
+        if len(calls) == 1:
+            (Path(path) / "half").unlink()  # part of the folder went before the signal
+            raise Stopped(15)
+        real(path, ignore_errors=ignore_errors)
+
+    monkeypatch.setattr("stalm.temp_folders.shutil.rmtree", rmtree_stopped_once)
+    with pytest.raises(Stopped), temporary_folder("fd") as folder:
+        (Path(folder) / "half").write_text("x")
+        (Path(folder) / "output.sas").write_text("begin_version")
+    assert calls == [folder, folder]
+    assert not Path(folder).exists()
 
 
 def test_the_folders_of_ended_processes_are_removed_and_no_other(tmp_path: Path) -> None:
