@@ -16,9 +16,9 @@ if __name__ == "__main__":
     checks = [c for arg in sys.argv[1:] for c in check_results(Path(arg))]
     print(
         "| problem | solved records replayed | goal reached | occluders named at the start "
-        "| claim broken |"
+        "| first picks checked | claim broken |"
     )
-    print("| --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- |")
     for name in sorted({c.problem for c in checks}):
         mine = [c for c in checks if c.problem == name]
         broken = [c for c in mine if c.violations]
@@ -27,7 +27,7 @@ if __name__ == "__main__":
         )
         print(
             f"| {name} | {len(mine)} | {sum(c.reached_goal for c in mine)} | "
-            f"{occluders or 'none'} | {len(broken)} |"
+            f"{occluders or 'none'} | {sum(c.picks_checked for c in mine)} | {len(broken)} |"
         )
         for check in broken:
             print(f"  seed {check.seed}: " + "; ".join(check.violations))

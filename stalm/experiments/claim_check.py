@@ -24,7 +24,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from stalm.domain.actions import Pick
+from stalm.domain.actions import DiscreteAction, Pick
 from stalm.errors import StalmError
 from stalm.experiments.results_log import read_records
 from stalm.predicates.literals import GroundLiteral
@@ -47,6 +47,9 @@ class ClaimCheck:
     seed: int | None
     reached_goal: bool
     occluders: Mapping[str, frozenset[str]]
+    picks_checked: int
+    """First picks of an object that had occluders at the start: what the occluder claim
+    was checked on (0 says the check saw nothing, not that the plan is sound)."""
     violations: tuple[str, ...]
 
 
@@ -64,18 +67,14 @@ def occluder_violations(
     occluders: Mapping[str, frozenset[str]],
     doors: frozenset[str],
     states: tuple[State, ...],
-    actions: tuple[object, ...],
+    actions: tuple[DiscreteAction, ...],
 ) -> tuple[str, ...]:
     """Each first PICK of an object made while one of its initial occluders still stands
     where it stood, or is a door (of ``doors``) still closed (``states[0]`` is the initial
     state; ``states[k]`` the one ``actions[k]`` is applied to)."""
     start = states[0]
     found = []
-    picked: set[str] = set()
-    for step, (before, action) in enumerate(zip(states, actions, strict=False), start=1):
-        if not isinstance(action, Pick) or action.obj in picked:
-            continue
-        picked.add(action.obj)
+    for step, (before, action) in _first_picks(states, actions):
         for occluder in sorted(occluders.get(action.obj, ())):
             if occluder in doors:
                 if not before.is_open(occluder):
@@ -83,6 +82,19 @@ def occluder_violations(
             elif _unmoved(start, before, occluder):
                 found.append(f"step {step}: {action.obj} picked with {occluder} still in the way")
     return tuple(found)
+
+
+def _first_picks(
+    states: tuple[State, ...], actions: tuple[DiscreteAction, ...]
+) -> list[tuple[int, tuple[State, Pick]]]:
+    """(step, (state before, action)) of each object's first PICK, steps counted from 1."""
+    picked: set[str] = set()
+    found = []
+    for step, (before, action) in enumerate(zip(states, actions, strict=False), start=1):
+        if isinstance(action, Pick) and action.obj not in picked:
+            picked.add(action.obj)
+            found.append((step, (before, action)))
+    return found
 
 
 def door_violations(problem: Problem, states: tuple[State, ...]) -> tuple[str, ...]:
@@ -120,9 +132,13 @@ def check_replay(
 ) -> ClaimCheck:
     """Every claim against one replayed plan."""
     doors = frozenset(door.name for door in problem.spec.doors)
-    violations = occluder_violations(occluders, doors, report.states, report.actions)
+    actions = tuple(action.discrete for action in report.actions)
+    violations = occluder_violations(occluders, doors, report.states, actions)
     violations += door_violations(problem, report.states)
-    return ClaimCheck(problem.name, seed, report.reached_goal, occluders, violations)
+    checked = sum(
+        1 for _, (_, pick) in _first_picks(report.states, actions) if occluders.get(pick.obj)
+    )
+    return ClaimCheck(problem.name, seed, report.reached_goal, occluders, checked, violations)
 
 
 def initial_occluders(problem: Problem) -> dict[str, frozenset[str]]:

@@ -9,6 +9,7 @@ fresh solves of seeds nobody looked at.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -25,7 +26,7 @@ from stalm.experiments.claim_check import (
 from stalm.experiments.trap_check import first_proposal
 from stalm.planners.registry import build_planner
 from stalm.settings.planner_config import PlannerConfig
-from stalm.trial.replay import replay_plan
+from stalm.trial.replay import replay_plan, replay_result_json
 from stalm.world.problem import load_problem
 from stalm.world.state import Grasp, ObjectPose
 
@@ -60,6 +61,26 @@ def test_a_pick_past_a_standing_occluder_or_a_closed_door_is_named() -> None:
     ) == ("step 2: salter picked with bottle3 still in the way",)
 
 
+def test_a_replayed_plan_that_picks_past_an_occluder_is_named() -> None:
+    """The check reads a replay's executed actions (each a discrete action with its
+    parameters): a report whose first action picks the salter is named."""
+    problem = load_problem("P2")
+    record = json.loads(
+        next(line for line in TABLE2.read_text().splitlines() if '"problem": "P2"' in line)
+    )
+    report = replay_result_json(problem, record)
+    salter = next(i for i, a in enumerate(report.actions) if a.discrete == Pick("salter"))
+    forged = dataclasses.replace(
+        report,
+        states=(problem.initial_state, *report.states[salter + 1 :]),
+        actions=report.actions[salter:],
+    )
+    occluders = {"salter": frozenset({"bottle2", "bottle3", "kitchen_door"})}
+    check = check_replay(problem, occluders, forged)
+    assert check.picks_checked == 1
+    assert "step 1: salter picked with bottle2 still in the way" in check.violations
+
+
 def test_a_cross_room_move_with_the_door_closed_is_named() -> None:
     problem = load_problem("P1")
     spec = problem.spec
@@ -86,6 +107,9 @@ def test_the_committed_solves_meet_every_claim(tmp_path) -> None:
     checks = check_results(sample)
     assert [c.problem for c in checks] == ["P2"] * 3
     assert all(c.reached_goal and c.violations == () for c in checks)
+    # the salter and both bottles (behind the closed door) were picked: the claim was met,
+    # not skipped
+    assert all(c.picks_checked >= 3 for c in checks), [c.picks_checked for c in checks]
 
 
 def test_the_first_proposal_of_p5_puts_the_grill_first_and_fails() -> None:
@@ -109,4 +133,5 @@ def test_a_fresh_solve_meets_every_claim(name, seed) -> None:
     report = replay_plan(problem, problem.initial_state, list(result.plan))
     check = check_replay(problem, initial_occluders(problem), report, seed)
     assert check.reached_goal
+    assert check.picks_checked >= 1
     assert check.violations == ()
