@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from stalm.experiments.results_log import read_records
-from stalm.experiments.trap_check import check_results, first_proposal
+from stalm.experiments.trap_check import check_results, first_proposal, same_version
 from stalm.world.problem import load_problem
 
 if __name__ == "__main__":
@@ -42,6 +42,7 @@ if __name__ == "__main__":
             for arg in sys.argv[1:]
             for record in read_records(Path(arg)).latest_by_key().values()
             if record.get("problem") == name
+            and same_version(problem, record)
             and (found := first_proposal(problem, record)) is not None
         ]
         plans = sum(f.plans for f in firsts)

@@ -13,7 +13,9 @@ from pathlib import Path
 from stalm.experiments.claim_check import check_results
 
 if __name__ == "__main__":
-    checks = [c for arg in sys.argv[1:] for c in check_results(Path(arg))]
+    results = [check_results(Path(arg)) for arg in sys.argv[1:]]
+    checks = [c for result in results for c in result.checks]
+    skipped = [why for result in results for why in result.skipped]
     print(
         "| problem | solved records replayed | goal reached | occluders named at the start "
         "| first picks checked | claim broken |"
@@ -31,3 +33,7 @@ if __name__ == "__main__":
         )
         for check in broken:
             print(f"  seed {check.seed}: " + "; ".join(check.violations))
+    if skipped:
+        print(f"\n{len(skipped)} solved records left out (not checked):")
+        for why in skipped:
+            print(f"  {why[:200]}")

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
+from stalm.errors import StalmError
 from stalm.motion.timing import TimedMotion, time_base_path, time_waypoints
 from stalm.world.robot_limits import RobotLimits
 
@@ -126,7 +127,13 @@ def schedule_plan(actions: Sequence[Action], limits: RobotLimits) -> PlanSchedul
         params = action.params
         base = time_base_path(params.base_path, limits.base)
         arm = time_waypoints(params.arm_waypoints, limits.arm)
-        key = params.arm_waypoints.index(key_configuration(action))
+        conf = key_configuration(action)
+        if conf not in params.arm_waypoints:
+            raise StalmError(
+                f"{action.discrete}: its arm waypoints do not pass through the configuration "
+                "it grasps, places or pulls the handle at: no time for its event"
+            )
+        key = params.arm_waypoints.index(conf)
         timing = ActionTiming(action, clock, base, arm, key)
         timings.append(timing)
         clock = timing.end

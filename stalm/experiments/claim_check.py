@@ -155,23 +155,40 @@ def initial_occluders(problem: Problem) -> dict[str, frozenset[str]]:
     return pick_occluders(literals)
 
 
-def check_results(path: Path) -> list[ClaimCheck]:
+@dataclass(frozen=True)
+class CheckedResults:
+    """The checks of one results file's solved records, and the solved records left out
+    (each with why: solved on another version of its problem, or a plan that is refused)."""
+
+    checks: tuple[ClaimCheck, ...]
+    skipped: tuple[str, ...]
+
+
+def check_results(path: Path) -> CheckedResults:
     """Every solved record of ``path`` (an experiment's JSON lines; a retried trial's last
     record), replayed on the problem it was solved on (the one it carries, or for an older
-    record the one it names, if that is still the same problem; others are skipped)."""
+    record the one it names, if that is still the same problem); the others are named in
+    ``skipped``, not checked."""
     checks = []
+    skipped = []
     occluders: dict[str, dict[str, frozenset[str]]] = {}
     for record in read_records(path).latest_by_key().values():
         if not record.get("success"):
             continue
+        where = f"{record.get('problem')} seed {record.get('seed')}"
         try:
             problem = record_problem(record, str(path))
-        except StalmError:
-            continue  # solved on a problem that has changed since (P5/P6 before the trap bound)
+        except StalmError as error:  # P5/P6 before the trap bound: another problem hash
+            skipped.append(f"{where}: {error}")
+            continue
         if problem.content_hash not in occluders:
             occluders[problem.content_hash] = initial_occluders(problem)
         seed = record.get("seed")
-        report = replay_result_json(problem, record)
+        try:
+            report = replay_result_json(problem, record)
+        except StalmError as error:
+            skipped.append(f"{where}: {error}")
+            continue
         checks.append(
             check_replay(
                 problem,
@@ -180,7 +197,7 @@ def check_results(path: Path) -> list[ClaimCheck]:
                 seed if isinstance(seed, int) else None,
             )
         )
-    return checks
+    return CheckedResults(tuple(checks), tuple(skipped))
 
 
 def _unmoved(start: State, now: State, obj: str) -> bool:

@@ -17,7 +17,7 @@ from pathlib import Path
 from stalm.domain.actions import Place
 from stalm.experiments.results_log import read_records
 from stalm.trial.replay import replay_result_json
-from stalm.world.problem import Problem
+from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
 from stalm.world.relations import at_position
 from stalm.world.state import State
 
@@ -89,15 +89,21 @@ class FirstProposal:
 
 
 def first_proposal(problem: Problem, record: dict[str, object]) -> FirstProposal | None:
-    """The first proposal's plans of a record's step log (None when it logged none)."""
+    """The first proposal's task plans of a record's step log (None when it logged none, or
+    logged it in another shape). A plan counts as infeasible when Concretize stopped it at a
+    step (``failed_step``), not when it merely ran short of the goal."""
     details = record.get("details")
     log = details.get("step_log") if isinstance(details, dict) else None
-    if not isinstance(log, list) or not log or not log[0].get("proposals"):
+    step = log[0] if isinstance(log, list) and log else None
+    proposals = step.get("proposals") if isinstance(step, dict) else None
+    proposal = proposals[0] if isinstance(proposals, list) and proposals else None
+    plans = proposal.get("plans") if isinstance(proposal, dict) else None
+    if not isinstance(plans, list):
         return None
-    plans = log[0]["proposals"][0].get("plans") or []
+    plans = [plan for plan in plans if isinstance(plan, dict) and plan.get("actions")]
     counters = trap_counters(problem)
-    first = [plan for plan in plans if _grill_first(plan.get("actions") or [], counters)]
-    failed = [plan for plan in first if not plan.get("reached_goal")]
+    first = [plan for plan in plans if _grill_first(plan["actions"], counters)]
+    failed = [plan for plan in first if plan.get("failed_step") is not None]
     return FirstProposal(len(plans), len(first), len(failed))
 
 
@@ -116,10 +122,18 @@ def _grill_first(actions: list[list[str]], counters: dict[str, str]) -> bool:
 
 def check_results(path: Path, problems: dict[str, Problem]) -> list[TrapCheck]:
     """Every solved record of ``path`` (an experiment's JSON lines; a retried trial's last
-    record) whose problem is in ``problems``."""
+    record) whose problem is in ``problems`` as it is now: a record solved on another version
+    of the problem (P5 and P6 before the trap bound: another problem hash) is left out."""
     checks = []
     for record in read_records(path).latest_by_key().values():
         problem = problems.get(str(record.get("problem")))
-        if problem is not None and record.get("success"):
+        if problem is not None and record.get("success") and same_version(problem, record):
             checks.append(check_record(problem, record))
     return checks
+
+
+def same_version(problem: Problem, record: dict[str, object]) -> bool:
+    """Whether ``record`` was solved on ``problem`` as it is now (a record too old to carry
+    its problem's hash is taken at its word)."""
+    recorded = record.get(PROBLEM_HASH_FIELD)
+    return recorded is None or recorded == problem.content_hash

@@ -49,6 +49,7 @@ from stalm.generate.suite_index import (
     plain_name,
     read_index,
 )
+from stalm.trial.result import check_seed
 
 
 def write_generated(generated: Generated, path: Path) -> Path:
@@ -108,6 +109,7 @@ def generate_suite(
     by each size. Everything that would stop it (the name, the sizes, the folder and its
     files, another suite there) is checked before the first problem is made."""
     check_suite_name(name)
+    check_seed(seed, "--seed")  # SeedSequence takes no negative seed
     if not sizes or per_size < 1:
         raise StalmError("a suite needs --sizes and a --per-size of at least 1")
     for size in sizes:

@@ -102,7 +102,7 @@ class PredicateEngine:
         self.spec = problem.spec
         self.sim = sim
         self.base_planner = base_planner
-        self.settings = (settings or PredicateSettings()).for_objects(len(problem.spec.objects))
+        self.settings = settings or PredicateSettings()
         self.samples = MotionSamples(self.spec, sim, base_planner, self.settings, grasp_ranges)
         self._extent = self.samples.hands.extent
 

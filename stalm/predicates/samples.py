@@ -75,12 +75,15 @@ class PredicateSettings:
     which checks it). A scene of many objects with a few goal objects then costs about what a
     small one does (``PredicateEngine``)."""
     relevant_above: int | None = 64
-    """Beyond the paper: on a problem of more movable objects than this, the predicates are
-    relevant-only whatever ``relevant_only`` says (None: never). The paper's predicates sweep
-    every object's picks and placements, and past about a hundred objects they alone outrun a
-    budget while a plan touches a handful (a generated 120-object problem spent 205 s of its
-    300 s on them and timed out; relevant-only, it solved in 42 s). P1-P6 (at most 24 objects)
-    and the scale suite up to 64 keep the paper's (:meth:`for_objects`)."""
+    """Beyond the paper: on a problem of more movable objects than this, a run's resolved
+    settings (:meth:`~stalm.settings.tree.RunSettings.resolved`: ``stalm solve``, ``stalm
+    experiment``, ``stalm rerun``) make the predicates relevant-only whatever
+    ``relevant_only`` says (None: never); an engine built directly computes what it is
+    asked. The paper's predicates sweep every object's picks and placements, and past about
+    a hundred objects they alone outrun a budget while a plan touches a handful (a generated
+    120-object problem spent 205 s of its 300 s on them and timed out; relevant-only, it
+    solved in 42 s). P1-P6 (at most 24 objects) and the scale suite up to 64 keep the
+    paper's (:meth:`for_objects`)."""
     workers: int = 1
     """Processes for a state's full computation (beyond the paper; 1: the trial's own only).
     Forked copies of the process each sample a share of the actions

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import pybullet as p
 
+from stalm.errors import StalmError
 from stalm.geometry.transforms import yaw_quat
 from stalm.world import robot as robot_model
 from stalm.world.problem import Problem
@@ -141,7 +142,16 @@ def check_physics(
 ) -> PhysicsReport:
     """Settle ``states`` (the initial state, then the state after each action, as a replay
     gives them) under gravity one after the other and measure each; ``labels`` name the
-    actions (``labels[i]`` made ``states[i + 1]``)."""
+    actions (``labels[i]`` made ``states[i + 1]``). The tolerances must be positive and the
+    settling time at least one time step (a StalmError names the one that is not)."""
+    for name, value in (("tolerance_m", tolerance_m), ("tolerance_deg", tolerance_deg)):
+        if not (math.isfinite(value) and value > 0):
+            raise StalmError(f"check_physics: {name} must be a positive number, got {value!r}")
+    if not (math.isfinite(settle_seconds) and settle_seconds >= TIME_STEP):
+        raise StalmError(
+            f"check_physics: settle_seconds must be at least one time step ({TIME_STEP:.6g} s), "
+            f"got {settle_seconds!r}"
+        )
     world = _PhysicsWorld(problem)
     try:
         steps = []

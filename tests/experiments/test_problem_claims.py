@@ -23,7 +23,7 @@ from stalm.experiments.claim_check import (
     initial_occluders,
     occluder_violations,
 )
-from stalm.experiments.trap_check import first_proposal
+from stalm.experiments.trap_check import FirstProposal, first_proposal
 from stalm.planners.registry import build_planner
 from stalm.settings.planner_config import PlannerConfig
 from stalm.trial.replay import replay_plan, replay_result_json
@@ -104,7 +104,9 @@ def test_the_committed_solves_meet_every_claim(tmp_path) -> None:
     lines = [line for line in TABLE2.read_text().splitlines() if '"problem": "P2"' in line]
     sample = tmp_path / "p2.jsonl"
     sample.write_text("\n".join(lines[:3]) + "\n")
-    checks = check_results(sample)
+    checked = check_results(sample)
+    assert checked.skipped == ()
+    checks = checked.checks
     assert [c.problem for c in checks] == ["P2"] * 3
     assert all(c.reached_goal and c.violations == () for c in checks)
     # the salter and both bottles (behind the closed door) were picked: the claim was met,
@@ -135,3 +137,43 @@ def test_a_fresh_solve_meets_every_claim(name, seed) -> None:
     assert check.reached_goal
     assert check.picks_checked >= 1
     assert check.violations == ()
+
+
+def test_records_of_another_version_of_a_problem_are_named_not_checked(tmp_path) -> None:
+    # Table 2's P5 records were solved before the trap bound: another problem hash
+    lines = [line for line in TABLE2.read_text().splitlines() if '"problem": "P5"' in line]
+    sample = tmp_path / "p5.jsonl"
+    sample.write_text("\n".join(lines[:2]) + "\n")
+    checked = check_results(sample)
+    assert checked.checks == ()
+    assert len(checked.skipped) == 2
+    assert all("P5 seed" in why for why in checked.skipped)
+    from stalm.experiments.trap_check import check_results as trap_results
+
+    assert trap_results(sample, {"P5": load_problem("P5")}) == []  # not a crash
+
+
+def test_the_fidelity_reads_only_what_it_understands() -> None:
+    problem = load_problem("P5")
+    assert first_proposal(problem, {"details": {"step_log": ["not a step"]}}) is None
+    assert first_proposal(problem, {"details": {"step_log": [{"proposals": [{}]}]}}) is None
+    plans = [
+        {
+            "actions": [
+                ["place", "beef_grill", "on", "counter1"],
+                ["place", "coke", "on", "counter1"],
+            ],
+            "failed_step": 1,
+        },
+        {
+            "actions": [
+                ["place", "beef_grill", "on", "counter1"],
+                ["place", "coke", "on", "counter1"],
+            ],
+            "failed_step": None,
+            "reached_goal": False,
+        },  # ran short, Concretize did not stop it
+        {"no_plan": "Fast Downward found none"},  # no actions: not a plan
+    ]
+    record = {"details": {"step_log": [{"proposals": [{"plans": plans}]}]}}
+    assert first_proposal(problem, record) == FirstProposal(2, 2, 1)

@@ -336,3 +336,9 @@ def test_write_together_removes_a_new_file_when_its_partner_fails(tmp_path: Path
     with pytest.raises(OSError):
         write_together([(tmp_path / "a.yaml", "a\n"), (tmp_path / "b.json", "{}\n")])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b.json"]  # no a.yaml, no temporary
+
+
+def test_a_negative_suite_seed_is_one_line_before_any_work(tmp_path: Path) -> None:
+    with pytest.raises(StalmError, match="--seed must be a non-negative integer, got -1"):
+        generate_suite("a", (6,), 1, -1, tmp_path / "s", Knobs(6, 1, 1))
+    assert not (tmp_path / "s").exists()

@@ -11,6 +11,7 @@ per-step record (``details``), which the export does not read.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import itertools
 import json
 import math
@@ -278,3 +279,23 @@ def test_stalm_export_says_when_it_cannot_write(monkeypatch, capsys, tmp_path) -
     assert run_cli(monkeypatch, "export", str(RESULT_FILE), "-o", str(out), "--rate", "5") == 2
     err = capsys.readouterr().err
     assert f"--output {out}: cannot write it (No space left on device)" in " ".join(err.split())
+
+
+def test_an_open_whose_waypoints_miss_its_handle_configuration_is_a_clear_error(problems) -> None:
+    """A foreign record's OPEN may replay (its handle reach and its sweep are checked apart)
+    with waypoints that never pass through its handle configuration: the event has no time,
+    which is said in one line, not a bare ValueError."""
+    from stalm.domain.params import OpenParams
+    from stalm.domain.schedule import schedule_plan
+    from stalm.trial.replay import replay_result_json
+
+    report = replay_result_json(problems["P2"], RESULT)
+    opening = next(a for a in report.actions if isinstance(a.params, OpenParams))
+    params = opening.params
+    assert isinstance(params, OpenParams)
+    waypoints = tuple(w for w in params.arm_waypoints if w != params.handle_conf)
+    forged = dataclasses.replace(
+        opening, params=dataclasses.replace(params, arm_waypoints=waypoints)
+    )
+    with pytest.raises(StalmError, match="do not pass through the configuration"):
+        schedule_plan([forged], panda_limits())

@@ -210,3 +210,22 @@ def test_an_experiment_records_the_check_with_physics(monkeypatch, tmp_path: Pat
     assert run_cli(monkeypatch, *args, "--trials", "1", "--results", str(plain)) == 0
     [without] = [json.loads(line) for line in plain.read_text().splitlines()]
     assert "physics" not in without and without["key"] == record["key"]
+
+
+@pytest.mark.parametrize(
+    ("argument", "value"),
+    [
+        ("tolerance_m", 0.0),
+        ("tolerance_deg", -1.0),
+        ("tolerance_m", math.nan),
+        ("settle_seconds", 0.0),
+    ],
+)
+def test_the_api_refuses_a_tolerance_or_settling_time_that_is_no_number_of_its_kind(
+    problems, argument, value
+) -> None:
+    from stalm.errors import StalmError
+
+    problem = problems["P2"]
+    with pytest.raises(StalmError, match=f"check_physics: {argument} must be"):
+        check_physics(problem, (problem.initial_state,), **{argument: value})
