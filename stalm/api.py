@@ -11,9 +11,10 @@ A planner takes a run's settings tree (:class:`RunSettings`, whose defaults are 
 (``"execution.feedback=true"``) and :func:`with_values` with typed values
 (``("execution.feedback", True)``).
 
-A proposer is any object with a ``name`` and a ``propose`` method of the
-:class:`TaskPlanProposer` form; add a ``feedback`` keyword (:class:`FeedbackProposer`) and
-STaLM also tells it which steps failed.
+A proposer is any object of the :class:`TaskPlanProposer` form: a ``name``, a
+``takes_feedback`` flag, and ``propose(request)`` taking a :class:`ProposalRequest` and
+giving a :class:`Proposal`; with ``takes_feedback`` true, STaLM's ``request.feedback`` also
+says which steps failed.
 
 A problem can be built in Python as well as read from a file: a :class:`ProblemSpec` of
 :class:`WallSpec`, :class:`RegionSpec`, :class:`DoorSpec`, :class:`ObjectSpec`,
@@ -32,8 +33,9 @@ from stalm.planners.registry import build_planner, planners
 from stalm.planners.stalm import StalmPlanner
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.feedback import FailedStep
-from stalm.proposers.language_model import FeedbackProposer, LLMProposer, Proposal, TaskPlanProposer
+from stalm.proposers.language_model import LLMProposer
 from stalm.proposers.noisy import NoisyProposer
+from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
 from stalm.settings.io import with_overrides, with_values
 from stalm.settings.planner_config import PlannerConfig
 from stalm.settings.tree import RunSettings
@@ -57,7 +59,6 @@ __all__ = [
     "DiscreteAction",
     "DoorSpec",
     "FailedStep",
-    "FeedbackProposer",
     "GoalSpec",
     "LLMProposer",
     "NoisyProposer",
@@ -71,6 +72,7 @@ __all__ = [
     "Problem",
     "ProblemSpec",
     "Proposal",
+    "ProposalRequest",
     "RegionSpec",
     "ReplayReport",
     "RobotSpec",

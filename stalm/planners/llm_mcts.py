@@ -38,7 +38,8 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.mdp import RewardSettings
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
-from stalm.proposers.language_model import LLMProposer, Proposal, TaskPlanProposer
+from stalm.proposers.language_model import LLMProposer
+from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
 from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
 from stalm.search.policies import ValueFunction
 from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
@@ -182,14 +183,16 @@ class LLMPrior:
         if self.progress is not None:
             self.progress(f"llm-mcts: prior for new node #{self._stats.states + 1}")
         tick = time.monotonic()
-        literals = tuple(self.literals_of(state))
+        literals = frozenset(self.literals_of(state))
         predicate_seconds = time.monotonic() - tick
         tick = time.monotonic()
         seed = state_request_seed(self.trial_seed, state)
         # the episode charges the query's seconds (on_query): none go to the enclosing phase
         with self.timing.timed(None) if self.timing is not None else nullcontext():
             proposal = self.proposer.propose(
-                self.problem, state, literals, self.samples, seed, deadline=self._deadline_now()
+                ProposalRequest(
+                    self.problem, state, literals, self.samples, seed, self._deadline_now()
+                )
             )
         llm_seconds = time.monotonic() - tick
         if self.on_query is not None:

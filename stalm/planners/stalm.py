@@ -24,7 +24,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import replace
-from typing import Any, ClassVar, cast
+from typing import Any, ClassVar
 
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
@@ -33,13 +33,9 @@ from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.feedback import failed_steps
 from stalm.proposers.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
-from stalm.proposers.language_model import (
-    FeedbackProposer,
-    LLMProposer,
-    TaskPlanProposer,
-    takes_feedback,
-)
+from stalm.proposers.language_model import LLMProposer
 from stalm.proposers.noisy import NoisyProposer, injected_records
+from stalm.proposers.protocol import ProposalRequest, TaskPlanProposer
 from stalm.search import (
     ConcretePlan,
     ConcretizeResult,
@@ -122,25 +118,17 @@ class StalmStep(SearchStep):
             trial.say(f"step {done}: asking {proposer.name} for task plans")
             trial.observer.proposal(self.proposals, proposer.name)
             query_seed = stalm_proposal_seed(trial.seed, self.proposals)
-            if feedback:
-                proposal = cast(FeedbackProposer, proposer).propose(
+            proposal = proposer.propose(
+                ProposalRequest(
                     episode.problem,
                     state,
                     predicates.literals,
                     settings.n_batch,
                     query_seed,
                     deadline=episode.deadline,
-                    feedback=feedback,
+                    feedback=tuple(feedback),
                 )
-            else:
-                proposal = proposer.propose(
-                    episode.problem,
-                    state,
-                    predicates.literals,
-                    settings.n_batch,
-                    query_seed,
-                    deadline=episode.deadline,
-                )
+            )
             self.proposals += 1
             episode.record_query(proposal)
             if episode.out_of_time():
@@ -263,10 +251,10 @@ class StalmPlanner(TreePlanner):
 
     def start(self, trial: Trial) -> StalmStep:
         proposer = self.proposer
-        if self.settings.feedback and not takes_feedback(proposer):
+        if self.settings.feedback and not proposer.takes_feedback:
             raise StalmError(
-                f"the proposer {proposer.name} takes no feedback (its propose() has no "
-                "'feedback' parameter): switch feedback off"
+                f"the proposer {proposer.name} takes no feedback (its takes_feedback is false): "
+                "switch feedback off"
             )
         policies = SearchPolicies.from_settings(self.settings.search)
         return self.step_type(trial, self.settings, policies, proposer)

@@ -15,7 +15,7 @@ import resource
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,12 +29,11 @@ from stalm.llm.pddl import domain_pddl, failure_name, problem_pddl
 from stalm.llm.problem_prompt import goal_literals
 from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.feedback import FailedStep
-from stalm.proposers.language_model import Proposal
 from stalm.proposers.occlusion_cycles import without_occlusion_cycles
+from stalm.proposers.protocol import Proposal, ProposalRequest
 from stalm.proposers.task_objects import task_objects
 from stalm.temp_folders import temporary_folder
 from stalm.world.problem import Problem
-from stalm.world.state import State
 
 SEARCH = "lazy_greedy([ff()], preferred=[ff()], randomize_successors=true, random_seed={seed})"
 
@@ -175,16 +174,13 @@ class SymbolicProposer:
     def name(self) -> str:
         return "symbolic:fast-downward"
 
-    def propose(
-        self,
-        problem: Problem,
-        state: State,
-        literals: Iterable[GroundLiteral],
-        n: int,
-        seed: int,
-        deadline: float | None = None,
-        feedback: Sequence[FailedStep] = (),
-    ) -> Proposal:
+    @property
+    def takes_feedback(self) -> bool:
+        return True
+
+    def propose(self, request: ProposalRequest) -> Proposal:
+        problem, literals, feedback = request.problem, request.literals, request.feedback
+        n, seed, deadline = request.n, request.seed, request.deadline
         vocabulary = Vocabulary.from_problem(problem)
 
         def limit() -> float:

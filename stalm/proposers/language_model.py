@@ -8,11 +8,8 @@ as data with their reason.
 
 from __future__ import annotations
 
-import inspect
 import time
-from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
 
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.vocabulary import Vocabulary
@@ -23,109 +20,10 @@ from stalm.llm.feedback_prompt import with_feedback
 from stalm.llm.problem_prompt import problem_prompt
 from stalm.llm.prompt import Prompt, PromptOptions
 from stalm.llm.reply_parser import parse_reply
-from stalm.predicates.literals import GroundLiteral
-from stalm.proposers.feedback import FailedStep
-from stalm.world.problem import Problem
-from stalm.world.state import State
+from stalm.proposers.protocol import Proposal, ProposalRequest
 
 MAX_REPLY_TOKENS = 500
 """The token budget of one reply (the authors' max_tokens)."""
-
-
-@dataclass(frozen=True)
-class Proposal:
-    """A batch of task plans, the replies they came from, and what asking cost.
-
-    ``truncated[i]`` says plan ``i`` is only the beginning of its reply's plan: the reply was
-    cut off inside the plan list (by ``max_tokens``) and its complete steps were kept, as the
-    authors' parser did. It is aligned with ``plans``, or empty from a proposer whose plans are
-    never cut (the symbolic one).
-
-    ``seconds`` is the wall time the query took now. ``from_cache`` is true when every reply
-    came from the reply cache; ``cached_seconds`` is what the calls that first produced the
-    cached replies took (the cache stores it), so :attr:`original_seconds` is the time of the
-    run a replay reproduces, whatever happened to be cached when it ran.
-    """
-
-    plans: tuple[tuple[DiscreteAction, ...], ...]
-    unparseable: tuple[str, ...] = ()
-    """Per model reply that could not be read: the parser's reason."""
-    no_plan: tuple[str, ...] = ()
-    """Why a planning proposer (no model: the symbolic one) found no plan; Figure 5 counts it
-    as ``no_plan``, not as an unreadable reply."""
-    replies: tuple[str, ...] = ()
-    calls: int = 0
-    prompt_tokens: int = 0
-    completion_tokens: int = 0
-    seconds: float = 0.0
-    from_cache: bool = False
-    truncated: tuple[bool, ...] = ()
-    cached_seconds: float = 0.0
-    injected: tuple[str, ...] = ()
-    """Per plan, what a degraded proposer did to it on purpose (:mod:`stalm.proposers.noisy`:
-    ``clean``, ``inapplicable`` or the Figure 5 kind it injected); empty from every other
-    proposer."""
-    set_aside: tuple[str, ...] = ()
-    """The predicate literals the plans were made without, as text: the symbolic proposer's
-    occlusion cycles (:mod:`stalm.proposers.occlusion_cycles`) when the abstraction had no
-    plan with them; empty from every other proposer."""
-
-    @property
-    def truncated_plans(self) -> int:
-        """How many of ``plans`` are the kept beginning of a reply cut off inside its plan."""
-        return sum(self.truncated)
-
-    @property
-    def original_seconds(self) -> float:
-        """The seconds this query took when its replies were made: the stored seconds of cached
-        replies plus, for replies made now, the time taken now (all of it when nothing came
-        from the cache; only the stored seconds when everything did)."""
-        return self.cached_seconds + (0.0 if self.from_cache else self.seconds)
-
-
-class TaskPlanProposer(Protocol):
-    """Anything that proposes task plans for a state given its predicates."""
-
-    @property
-    def name(self) -> str: ...
-
-    def propose(
-        self,
-        problem: Problem,
-        state: State,
-        literals: Iterable[GroundLiteral],
-        n: int,
-        seed: int,
-        deadline: float | None = None,
-    ) -> Proposal:
-        """Up to ``n`` task plans from ``state``; stop early at ``deadline`` (monotonic).
-
-        A proposer that can use geometric feedback is a :class:`FeedbackProposer`. STaLM
-        passes ``feedback=`` only when feedback is switched on and there is some, so a
-        proposer written without it keeps working.
-        """
-        ...
-
-
-class FeedbackProposer(TaskPlanProposer, Protocol):
-    """A proposer that also takes the failed steps that hold in ``state``
-    (:class:`stalm.proposers.feedback.FailedStep`) and avoids them."""
-
-    def propose(
-        self,
-        problem: Problem,
-        state: State,
-        literals: Iterable[GroundLiteral],
-        n: int,
-        seed: int,
-        deadline: float | None = None,
-        feedback: Sequence[FailedStep] = (),
-    ) -> Proposal: ...
-
-
-def takes_feedback(proposer: TaskPlanProposer) -> bool:
-    """Whether ``proposer.propose`` accepts ``feedback=`` (a :class:`FeedbackProposer`)."""
-    return "feedback" in inspect.signature(proposer.propose).parameters
 
 
 @dataclass
@@ -142,31 +40,27 @@ class LLMProposer:
     def name(self) -> str:
         return f"llm:{self.backend.name}:{self.backend.model}"
 
-    def propose(
-        self,
-        problem: Problem,
-        state: State,
-        literals: Iterable[GroundLiteral],
-        n: int,
-        seed: int,
-        deadline: float | None = None,
-        feedback: Sequence[FailedStep] = (),
-    ) -> Proposal:
-        """The paper's query; with ``feedback`` (``--feedback``, beyond the paper) the failed
+    @property
+    def takes_feedback(self) -> bool:
+        return True
+
+    def propose(self, request: ProposalRequest) -> Proposal:
+        """The paper's query; with feedback (``--feedback``, beyond the paper) the failed
         steps are appended to the prompt as Iterative-Replanning's feedback is."""
-        prompt = problem_prompt(problem, literals, self.options)
-        if feedback:
-            prompt = with_feedback(prompt, [step.as_failed_plan() for step in feedback])
+        problem = request.problem
+        prompt = problem_prompt(problem, request.literals, self.options)
+        if request.feedback:
+            prompt = with_feedback(prompt, [step.as_failed_plan() for step in request.feedback])
         return ask_for_task_plans(
             self.backend,
             Vocabulary.from_problem(problem),
             prompt,
-            n,
-            seed,
+            request.n,
+            request.seed,
             constrained=self.constrained,
             temperature=self.temperature,
             max_tokens=self.max_tokens,
-            deadline=deadline,
+            deadline=request.deadline,
         )
 
 

@@ -19,25 +19,17 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
 from stalm.errors import StalmError
 from stalm.predicates.literals import GroundLiteral
-from stalm.proposers.feedback import FailedStep
-from stalm.proposers.language_model import (
-    FeedbackProposer,
-    Proposal,
-    TaskPlanProposer,
-    takes_feedback,
-)
 from stalm.proposers.plan_noise import PlanContext, corrupt_plans
+from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
 from stalm.search.concretize import ConcretePlan
 from stalm.search.failure_kinds import figure5_kind
 from stalm.settings.tree import NOISE_KINDS
-from stalm.world.problem import Problem
-from stalm.world.state import State
 
 NOISE_STREAM = 0x6E6F697379
 """Mixed into the query's seed (``b"noisy"``) so the noise draws are a stream of their own."""
@@ -77,35 +69,24 @@ class NoisyProposer:
             "inner": self.inner.name,
         }
 
-    def propose(
-        self,
-        problem: Problem,
-        state: State,
-        literals: Iterable[GroundLiteral],
-        n: int,
-        seed: int,
-        deadline: float | None = None,
-        feedback: Sequence[FailedStep] = (),
-    ) -> Proposal:
-        """``inner``'s proposal with its plans corrupted; the feedback, when STaLM passes some
-        (``--feedback``; off by default for this proposer), goes to ``inner``."""
-        literals = tuple(literals)
-        if feedback:
-            if not takes_feedback(self.inner):
-                raise StalmError(
-                    f"the proposer {self.inner.name} takes no feedback: switch feedback off"
-                )
-            proposal = cast(FeedbackProposer, self.inner).propose(
-                problem, state, literals, n, seed, deadline, feedback=feedback
+    @property
+    def takes_feedback(self) -> bool:
+        """Feedback (``--feedback``; off by default for this proposer) goes to ``inner``."""
+        return self.inner.takes_feedback
+
+    def propose(self, request: ProposalRequest) -> Proposal:
+        """``inner``'s proposal with its plans corrupted."""
+        if request.feedback and not self.inner.takes_feedback:
+            raise StalmError(
+                f"the proposer {self.inner.name} takes no feedback: switch feedback off"
             )
-        else:
-            proposal = self.inner.propose(problem, state, literals, n, seed, deadline)
+        proposal = self.inner.propose(request)
         plans, injected = corrupt_plans(
             proposal.plans,
-            PlanContext.of(problem, literals),
+            PlanContext.of(request.problem, request.literals),
             self.rate,
             self.weights,
-            noise_rng(seed),
+            noise_rng(request.seed),
         )
         return replace(proposal, plans=plans, injected=injected)
 

@@ -22,7 +22,7 @@ from stalm.domain.params import Action
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.predicates.memo import PredicateMemo
 from stalm.progress import QUIET, TrialObserver
-from stalm.proposers.language_model import Proposal
+from stalm.proposers.protocol import Proposal
 from stalm.search.concretize import ConcretizeResult
 from stalm.search.failure_kinds import figure5_kinds
 from stalm.trial.replay import replay_plan

@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.mdp import Domain
-from stalm.predicates.literals import GroundLiteral
-from stalm.proposers.language_model import Proposal
+from stalm.proposers.protocol import Proposal, ProposalRequest
 from stalm.settings.io import with_values
 from stalm.settings.tree import RunSettings
 from stalm.world.problem import Problem
-from stalm.world.state import State
 
 
 def plain_settings(sims: int, *overrides: tuple[str, Any]) -> RunSettings:
@@ -34,28 +32,21 @@ class ScriptedSuffixProposer:
     state: the longest suffixes whose first step's symbolic precondition holds now."""
 
     name = "scripted-test-double"
+    takes_feedback = False
 
     def __init__(self, problem: Problem, plan: Sequence[DiscreteAction]) -> None:
         self.plan = tuple(plan)
         self._domain_for_checks = Domain.create(problem)
         self.calls = 0
 
-    def propose(
-        self,
-        problem: Problem,
-        state: State,
-        literals: Iterable[GroundLiteral],
-        n: int,
-        seed: int,
-        deadline: float | None = None,
-    ) -> Proposal:
+    def propose(self, request: ProposalRequest) -> Proposal:
         self.calls += 1
         suffixes = [
             self.plan[i:]
             for i in range(len(self.plan))
-            if self._domain_for_checks.precondition_failure(state, self.plan[i]) is None
+            if self._domain_for_checks.precondition_failure(request.state, self.plan[i]) is None
         ]
-        return Proposal(plans=tuple(suffixes[:n]), calls=1)
+        return Proposal(plans=tuple(suffixes[: request.n]), calls=1)
 
     def close(self) -> None:
         self._domain_for_checks.close()

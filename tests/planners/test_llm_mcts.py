@@ -26,7 +26,8 @@ from stalm.planners.llm_mcts import (
     llm_mcts_policies,
 )
 from stalm.planners.registry import build_planner
-from stalm.proposers.language_model import LLMProposer, Proposal
+from stalm.proposers.language_model import LLMProposer
+from stalm.proposers.protocol import Proposal, ProposalRequest
 from stalm.search import SearchSettings, SearchTree, warm_started_uct
 from stalm.search.puct import uniform_prior
 from stalm.settings.io import with_overrides
@@ -312,8 +313,9 @@ class CachedProposerDouble:
     """Test double: every query 'comes from the reply cache', originally 5 s, now 0 s."""
 
     name = "cached-double"
+    takes_feedback = False
 
-    def propose(self, problem, state, literals, n, seed, deadline=None) -> Proposal:
+    def propose(self, request: ProposalRequest) -> Proposal:
         return Proposal((), calls=1, seconds=0.0, from_cache=True, cached_seconds=5.0)
 
 

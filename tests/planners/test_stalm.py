@@ -9,10 +9,11 @@ import pytest
 
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.mdp import Domain
+from stalm.errors import StalmError
 from stalm.experiments.trap_check import trap_violations
 from stalm.planners.stalm import StalmPlanner
 from stalm.planners.uct import UctPlanner
-from stalm.proposers.language_model import Proposal
+from stalm.proposers.protocol import Proposal, ProposalRequest
 from stalm.search import SearchSettings, SearchTree, TaskPlan, concretize, warm_started_uct
 from stalm.trial.replay import replay_plan, replay_result_json
 from stalm.world.problem import Problem
@@ -240,9 +241,18 @@ class NoPlanProposerDouble:
     does on an unsolvable abstraction)."""
 
     name = "no-plan-test-double"
+    takes_feedback = False
 
-    def propose(self, problem, state, literals, n, seed, deadline=None) -> Proposal:
+    def propose(self, request: ProposalRequest) -> Proposal:
         return Proposal(plans=(), no_plan=("the abstraction has no plan to the goal",))
+
+
+def test_feedback_on_for_a_proposer_that_takes_none_is_refused_naming_it(problems) -> None:
+    """A proposer states whether it reads ``request.feedback``; STaLM will not run feedback
+    into one that would drop it, and says which proposer and what to switch off."""
+    settings = plain_settings(2, ("execution.feedback", True))
+    with pytest.raises(StalmError, match="no-plan-test-double takes no feedback"):
+        StalmPlanner(NoPlanProposerDouble(), settings).solve(problems["P2"], 0, 1.5)
 
 
 def test_a_proposer_that_found_no_plan_counts_as_no_plan_not_unparseable(problems) -> None:

@@ -10,6 +10,7 @@ from stalm.domain.mdp import Domain
 from stalm.planners.stalm import StalmPlanner
 from stalm.proposers import fast_downward
 from stalm.proposers.fast_downward import SymbolicProposer, downward_binary
+from stalm.proposers.protocol import ProposalRequest
 from stalm.trial.replay import replay_plan
 from tests.planners.doubles import plain_settings
 
@@ -18,7 +19,9 @@ def test_fast_downward_plans_from_the_p2_predicates(problems, initial_literals) 
     assert downward_binary().exists()
     problem = problems["P2"]
     proposal = SymbolicProposer().propose(
-        problem, problem.initial_state, initial_literals("P2"), 5, seed=0
+        ProposalRequest(
+            problem, problem.initial_state, frozenset(initial_literals("P2")), 5, seed=0
+        )
     )
     assert proposal.plans and len(set(proposal.plans)) == len(proposal.plans)
     domain = Domain.create(problem)
@@ -40,7 +43,9 @@ def test_the_p5_grill_goes_first_symbolically(problems, initial_literals) -> Non
     problem = problems["P5"]
     plans = (
         SymbolicProposer()
-        .propose(problem, problem.initial_state, initial_literals("P5"), 5, 0)
+        .propose(
+            ProposalRequest(problem, problem.initial_state, frozenset(initial_literals("P5")), 5, 0)
+        )
         .plans
     )
     steps = [[str(a) for a in plan] for plan in plans]
@@ -72,7 +77,9 @@ def test_past_the_deadline_no_fast_downward_runs_and_no_plan_is_proposed(
     monkeypatch.setattr(fast_downward, "search_task", _fast_downward_must_not_run)
     problem = problems["P2"]
     proposal = SymbolicProposer().propose(
-        problem, problem.initial_state, [], 5, seed=0, deadline=time.monotonic() - 1.0
+        ProposalRequest(
+            problem, problem.initial_state, frozenset(), 5, seed=0, deadline=time.monotonic() - 1.0
+        )
     )
     assert proposal.plans == () and proposal.unparseable == () and proposal.no_plan == ()
 
@@ -88,12 +95,16 @@ def test_fast_downward_cut_short_by_the_deadline_is_a_timeout_not_an_error(
     monkeypatch.setattr(fast_downward, "search_task", _fast_downward_must_not_run)
     problem = problems["P2"]
     proposal = SymbolicProposer().propose(
-        problem, problem.initial_state, [], 5, seed=0, deadline=time.monotonic() + 0.05
+        ProposalRequest(
+            problem, problem.initial_state, frozenset(), 5, seed=0, deadline=time.monotonic() + 0.05
+        )
     )
     assert proposal.plans == () and proposal.unparseable == () and proposal.no_plan == ()
     # without a deadline the limit that ran out is the proposer's own: no plan from that call,
     # and the reason is kept (test_feedback.py runs the real translator into its limit)
-    own = SymbolicProposer(time_limit_s=0.01).propose(problem, problem.initial_state, [], 5, 0)
+    own = SymbolicProposer(time_limit_s=0.01).propose(
+        ProposalRequest(problem, problem.initial_state, frozenset(), 5, 0)
+    )
     assert own.plans == () and "time limit" in own.no_plan[0]
     assert own.unparseable == ()  # no reply was misread: the planner found no plan
 

@@ -15,6 +15,7 @@ from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.feedback import failed_steps
 from stalm.proposers.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
+from stalm.proposers.protocol import ProposalRequest
 from stalm.search.concretize import ConcretePlan, ConcreteStep, TaskPlan
 from stalm.search.tree import SearchTree
 from stalm.world.state import Grasp, ObjectPose
@@ -43,7 +44,7 @@ def test_a_failed_placement_is_no_longer_proposed_and_lapses_when_its_context_ch
     literals = initial_literals("P2")
     proposer = SymbolicProposer()
     target = Place("bottle2", "on", "table1")
-    before = proposer.propose(problem, state, literals, 5, seed=0)
+    before = proposer.propose(ProposalRequest(problem, state, frozenset(literals), 5, seed=0))
     assert any(target in plan for plan in before.plans)
 
     # table1 is empty: a placement that finds no spot there hit only static scenery
@@ -61,7 +62,9 @@ def test_a_failed_placement_is_no_longer_proposed_and_lapses_when_its_context_ch
     holding = memory.holding_in(state)
     assert holding == learned
 
-    after = proposer.propose(problem, state, literals, 5, seed=0, feedback=holding)
+    after = proposer.propose(
+        ProposalRequest(problem, state, frozenset(literals), 5, seed=0, feedback=tuple(holding))
+    )
     assert after.plans
     assert all(target not in proposed for proposed in after.plans)
 
@@ -101,7 +104,9 @@ def test_no_room_beside_an_object_is_a_rule_about_that_object_being_there(
 
     root = problem.initial_state
     proposal = SymbolicProposer().propose(
-        problem, root, initial_literals("P2"), 5, seed=0, feedback=learned
+        ProposalRequest(
+            problem, root, frozenset(initial_literals("P2")), 5, seed=0, feedback=tuple(learned)
+        )
     )
     assert proposal.plans
     for proposed in proposal.plans:
@@ -136,7 +141,9 @@ def test_a_rule_that_leaves_no_plan_is_dropped(problems, initial_literals) -> No
     learned = failed_steps(problem, [_failed_plan(state, plan, 1, why)])
     assert learned[0].forbids == ("salter", "right_of", "bottle1", "table2")
     proposal = SymbolicProposer().propose(
-        problem, state, initial_literals("P2"), 3, seed=0, feedback=learned
+        ProposalRequest(
+            problem, state, frozenset(initial_literals("P2")), 3, seed=0, feedback=tuple(learned)
+        )
     )
     assert proposal.plans
     assert all(p[-1] == Place("salter", "right_of", "bottle1") for p in proposal.plans)
@@ -201,10 +208,14 @@ def test_contradicting_rules_are_given_up_in_orders_drawn_from_the_seed(
     proposer = SymbolicProposer()
     literals = initial_literals("P5")
     state = problem.initial_state
-    proposal = proposer.propose(problem, state, literals, 5, seed=0, feedback=holding)
+    proposal = proposer.propose(
+        ProposalRequest(problem, state, frozenset(literals), 5, seed=0, feedback=tuple(holding))
+    )
     last = [_last_placed_on(plan, "counter1")[-1] for plan in proposal.plans]
     assert "beef_grill" in last and len(set(last)) > 1, last
-    again = proposer.propose(problem, state, literals, 5, seed=0, feedback=holding)
+    again = proposer.propose(
+        ProposalRequest(problem, state, frozenset(literals), 5, seed=0, feedback=tuple(holding))
+    )
     assert again.plans == proposal.plans
 
 
@@ -231,12 +242,14 @@ def test_an_arm_blocked_by_what_stands_on_the_region_is_the_crowding_rule(
     memory = FeedbackMemory.empty()
     memory.learn([learned])
     proposal = SymbolicProposer().propose(
-        problem,
-        problem.initial_state,
-        initial_literals("P5"),
-        3,
-        seed=0,
-        feedback=memory.holding_in(problem.initial_state),
+        ProposalRequest(
+            problem,
+            problem.initial_state,
+            frozenset(initial_literals("P5")),
+            3,
+            seed=0,
+            feedback=tuple(memory.holding_in(problem.initial_state)),
+        )
     )
     assert proposal.plans
     for task_plan in proposal.plans:
@@ -263,7 +276,14 @@ def test_refuted_rules_leave_the_contradiction_to_the_true_ones(problems, initia
     holding = memory.holding_in(problem.initial_state)
     assert [step.forbids[0] for step in holding if step.forbids] == ["coke", "sprite"]
     proposal = SymbolicProposer().propose(
-        problem, problem.initial_state, initial_literals("P5"), 3, seed=0, feedback=holding
+        ProposalRequest(
+            problem,
+            problem.initial_state,
+            frozenset(initial_literals("P5")),
+            3,
+            seed=0,
+            feedback=tuple(holding),
+        )
     )
     assert proposal.plans
     for plan in proposal.plans:
@@ -393,7 +413,14 @@ def test_a_pick_rule_keeps_the_occluder_off_the_region_and_a_grounded_pick_refut
         if "beef_grill" not in literal.args and literal.name != "HandAvailable"
     } | {GroundLiteral("RobotHolding", ("beef_grill",))}
     proposal = SymbolicProposer().propose(
-        problem, holding, literals, 5, seed=0, feedback=memory.holding_in(holding)
+        ProposalRequest(
+            problem,
+            holding,
+            frozenset(literals),
+            5,
+            seed=0,
+            feedback=tuple(memory.holding_in(holding)),
+        )
     )
     assert proposal.plans
     for plan in proposal.plans:
@@ -426,7 +453,9 @@ def test_a_fast_downward_time_out_is_an_empty_proposal_not_an_exception(
 ) -> None:
     problem = problems["P2"]
     proposal = SymbolicProposer(time_limit_s=0.001).propose(
-        problem, problem.initial_state, initial_literals("P2"), 3, seed=0
+        ProposalRequest(
+            problem, problem.initial_state, frozenset(initial_literals("P2")), 3, seed=0
+        )
     )
     assert proposal.plans == ()
     assert proposal.no_plan and "time limit" in proposal.no_plan[0]

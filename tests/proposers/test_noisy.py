@@ -7,7 +7,7 @@ salter, P6's grill in front of its walled counter), so these tests need no simul
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 
 import pytest
 
@@ -20,7 +20,6 @@ from stalm.planners.tree_step import StalmSettings
 from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.feedback import FailedStep
-from stalm.proposers.language_model import Proposal
 from stalm.proposers.noisy import NoisyProposer, injected_records, noise_rng
 from stalm.proposers.plan_noise import (
     PlanContext,
@@ -29,12 +28,12 @@ from stalm.proposers.plan_noise import (
     partial_goals,
     precondition_violations,
 )
+from stalm.proposers.protocol import Proposal, ProposalRequest
 from stalm.search import TaskPlan
 from stalm.search.concretize import ConcretePlan
 from stalm.settings.io import with_overrides
 from stalm.settings.tree import RunSettings
 from stalm.world.problem import Problem
-from stalm.world.state import State
 from tests.planners.test_stalm import P2_PLAN, P6_PLAN
 
 P5_PLAN = (
@@ -218,34 +217,30 @@ class InnerDouble:
     """Returns the same plans whatever it is asked (tests only)."""
 
     name = "inner-test-double"
+    takes_feedback = True
 
     def __init__(self, plans: Sequence[tuple]) -> None:
         self.plans = tuple(plans)
         self.feedback: Sequence[FailedStep] = ()
 
-    def propose(
-        self,
-        problem: Problem,
-        state: State,
-        literals: Iterable[GroundLiteral],
-        n: int,
-        seed: int,
-        deadline: float | None = None,
-        feedback: Sequence[FailedStep] = (),
-    ) -> Proposal:
-        self.feedback = feedback
-        return Proposal(plans=self.plans[:n], calls=0, seconds=0.01)
+    def propose(self, request: ProposalRequest) -> Proposal:
+        self.feedback = request.feedback
+        return Proposal(plans=self.plans[: request.n], calls=0, seconds=0.01)
 
 
 def test_the_noisy_proposer_wraps_its_inner_proposer(problems) -> None:
     problem = problems["P6"]
     inner = InnerDouble([P6_PLAN] * 5)
     state = problem.initial_state
-    clean = NoisyProposer(inner, rate=0.0).propose(problem, state, P6_LITERALS, 5, seed=4)
+    clean = NoisyProposer(inner, rate=0.0).propose(
+        ProposalRequest(problem, state, frozenset(P6_LITERALS), 5, seed=4)
+    )
     assert clean.plans == inner.plans and clean.injected == ("clean",) * 5
     noisy = NoisyProposer(inner, rate=1.0)
-    first = noisy.propose(problem, state, P6_LITERALS, 5, seed=4)
-    assert first == noisy.propose(problem, state, P6_LITERALS, 5, seed=4)
+    first = noisy.propose(ProposalRequest(problem, state, frozenset(P6_LITERALS), 5, seed=4))
+    assert first == noisy.propose(
+        ProposalRequest(problem, state, frozenset(P6_LITERALS), 5, seed=4)
+    )
     assert all(plan != P6_PLAN for plan in first.plans) and "clean" not in first.injected
     assert first.seconds == 0.01 and first.calls == 0
     # its name says what it is: a degraded proposer around another, no model
@@ -253,8 +248,18 @@ def test_the_noisy_proposer_wraps_its_inner_proposer(problems) -> None:
     assert noisy.describe()["weights"]["partially_achieved_goal"] == 1.0
     why = Infeasibility("no_placement", "no room on counter2")
     failed = (FailedStep(P6_PLAN, 4, why, (), (), frozenset()),)
-    noisy.propose(problem, state, P6_LITERALS, 5, seed=4, feedback=failed)
+    noisy.propose(
+        ProposalRequest(problem, state, frozenset(P6_LITERALS), 5, seed=4, feedback=tuple(failed))
+    )
     assert inner.feedback == failed
+    # it passes feedback on only to an inner proposer that reads it
+    assert noisy.takes_feedback
+    inner.takes_feedback = False
+    assert not noisy.takes_feedback
+    with pytest.raises(StalmError, match="inner-test-double takes no feedback"):
+        noisy.propose(
+            ProposalRequest(problem, state, frozenset(P6_LITERALS), 5, seed=4, feedback=failed)
+        )
     with pytest.raises(StalmError, match="rate must be in"):
         NoisyProposer(inner, rate=1.5)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.occlusion_cycles import occlusion_cycles, without_occlusion_cycles
+from stalm.proposers.protocol import ProposalRequest
 
 
 def pick(subject: str, occluder: str) -> GroundLiteral:
@@ -50,12 +51,14 @@ def test_a_cycle_that_leaves_no_plan_is_planned_without(problems, initial_litera
     cycle = (str(pick("bottle2", "salter")), str(pick("salter", "bottle2")))
 
     strict = SymbolicProposer(break_occlusion_cycles=False).propose(
-        problem, problem.initial_state, literals, 2, seed=0
+        ProposalRequest(problem, problem.initial_state, frozenset(literals), 2, seed=0)
     )
     assert not strict.plans and not strict.set_aside
     assert strict.no_plan == ("the predicate abstraction of this state has no plan to the goal",)
 
-    relaxed = SymbolicProposer().propose(problem, problem.initial_state, literals, 2, seed=0)
+    relaxed = SymbolicProposer().propose(
+        ProposalRequest(problem, problem.initial_state, frozenset(literals), 2, seed=0)
+    )
     assert relaxed.plans and not relaxed.no_plan
     assert relaxed.set_aside == cycle
     assert all(str(plan[-1]) == "place(salter, right_of, bottle1)" for plan in relaxed.plans)
@@ -66,5 +69,7 @@ def test_a_plan_found_with_every_literal_sets_nothing_aside(problems, initial_li
     kept: the proposer relaxes nothing while the abstraction has a plan."""
     problem = problems["P2"]
     literals = set(initial_literals("P2")) | {pick("bottle1", "bottle1")}
-    proposal = SymbolicProposer().propose(problem, problem.initial_state, literals, 1, seed=0)
+    proposal = SymbolicProposer().propose(
+        ProposalRequest(problem, problem.initial_state, frozenset(literals), 1, seed=0)
+    )
     assert proposal.plans and proposal.set_aside == ()

@@ -15,6 +15,7 @@ from stalm.llm.prompt import PromptOptions
 from stalm.llm.saycan_prompt import saycan_prompt
 from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.language_model import LLMProposer, ask_for_task_plans
+from stalm.proposers.protocol import ProposalRequest
 
 
 @dataclass
@@ -48,7 +49,11 @@ def test_replies_become_task_plans_and_reasons(problems) -> None:
     )
     proposer = LLMProposer(backend)
     literals = [GroundLiteral("HandAvailable")]
-    proposal = proposer.propose(problems["P2"], problems["P2"].initial_state, literals, 3, seed=9)
+    proposal = proposer.propose(
+        ProposalRequest(
+            problems["P2"], problems["P2"].initial_state, frozenset(literals), 3, seed=9
+        )
+    )
     assert proposal.plans == ((Pick("bottle2"), Place("bottle2", "on", "counter1")),)
     assert len(proposal.unparseable) == 2 and proposal.calls == 1
     assert proposal.prompt_tokens == 100 and proposal.completion_tokens == 60
@@ -64,7 +69,9 @@ def test_constrained_json_replies_are_read_as_the_template(problems) -> None:
         ('{"challenges": "none", "plan": [["pick", "salter"]]}', "{not json")
     )
     proposer = LLMProposer(backend, constrained=True)
-    proposal = proposer.propose(problems["P2"], problems["P2"].initial_state, [], 2, seed=0)
+    proposal = proposer.propose(
+        ProposalRequest(problems["P2"], problems["P2"].initial_state, frozenset(), 2, seed=0)
+    )
     assert proposal.plans == ((Pick("salter"),),)
     assert len(proposal.unparseable) == 1
     assert backend.requests[0].constraint is not None
@@ -77,7 +84,9 @@ def test_the_output_constraint_follows_the_prompts_challenges_option(
     backend = CannedRepliesBackendDouble(("plan = [('pick', 'salter')]",))
     options = PromptOptions(ask_challenges=challenges)
     proposer = LLMProposer(backend, options, constrained=True)
-    proposer.propose(problems["P2"], problems["P2"].initial_state, [], 1, seed=0)
+    proposer.propose(
+        ProposalRequest(problems["P2"], problems["P2"].initial_state, frozenset(), 1, seed=0)
+    )
     constraint = backend.requests[0].constraint
     assert constraint is not None
     vocabulary = Vocabulary.from_problem(problems["P2"])
@@ -120,7 +129,9 @@ def test_a_reply_cut_by_max_tokens_keeps_its_complete_steps_and_is_marked(proble
     cut = FIGURE12[: FIGURE12.index("('place', 'beef_grill'") + len("('place', 'beef_gr")]
     backend = FinishReasonBackendDouble((FIGURE12, cut), finishes=("stop", "length"))
     problem = problems["P6"]
-    proposal = LLMProposer(backend).propose(problem, problem.initial_state, [], 2, seed=0)
+    proposal = LLMProposer(backend).propose(
+        ProposalRequest(problem, problem.initial_state, frozenset(), 2, seed=0)
+    )
     whole = (
         Open("kitchen_door"),
         Pick("coke"),
@@ -154,8 +165,10 @@ def test_feedback_reaches_the_prompt_only_when_given(problems) -> None:
     backend = CannedRepliesBackendDouble(("plan = [('pick', 'salter')]",))
     proposer = LLMProposer(backend)
     literals = [GroundLiteral("HandAvailable")]
-    proposer.propose(problem, state, literals, 1, seed=0)
-    proposer.propose(problem, state, literals, 1, seed=0, feedback=feedback)
+    proposer.propose(ProposalRequest(problem, state, frozenset(literals), 1, seed=0))
+    proposer.propose(
+        ProposalRequest(problem, state, frozenset(literals), 1, seed=0, feedback=tuple(feedback))
+    )
     plain, told = backend.requests
     assert "Failed plans" not in plain.user
     assert told.user.startswith(plain.user)

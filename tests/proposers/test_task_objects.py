@@ -5,6 +5,7 @@ from __future__ import annotations
 from stalm.domain.vocabulary import Vocabulary
 from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.fast_downward import SymbolicProposer
+from stalm.proposers.protocol import ProposalRequest
 from stalm.proposers.task_objects import task_objects
 
 
@@ -70,9 +71,11 @@ def test_the_proposer_plans_alike_without_an_object_that_cannot_matter(
     kept, _ = task_objects(vocabulary, literals, [])
     assert "bottle2" in vocabulary.movables and "bottle2" not in kept.movables
     plain = SymbolicProposer(needed_objects_only=False).propose(
-        problem, problem.initial_state, literals, 3, seed=0
+        ProposalRequest(problem, problem.initial_state, frozenset(literals), 3, seed=0)
     )
-    needed = SymbolicProposer().propose(problem, problem.initial_state, literals, 3, seed=0)
+    needed = SymbolicProposer().propose(
+        ProposalRequest(problem, problem.initial_state, frozenset(literals), 3, seed=0)
+    )
     assert needed.plans and needed.plans == plain.plans
     assert all("bottle2" not in str(plan) for plan in needed.plans)
 
@@ -90,5 +93,9 @@ def test_no_object_is_left_out_where_any_relative_placement_is_grounded(
     monkeypatch.setattr(fast_downward, "task_objects", pruning_not_expected)
     problem = problems["P2"]
     proposer = SymbolicProposer(goal_relations_only=False)
-    proposal = proposer.propose(problem, problem.initial_state, initial_literals("P2"), 1, seed=0)
+    proposal = proposer.propose(
+        ProposalRequest(
+            problem, problem.initial_state, frozenset(initial_literals("P2")), 1, seed=0
+        )
+    )
     assert proposal.plans

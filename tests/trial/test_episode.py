@@ -104,7 +104,7 @@ def test_a_replayed_query_runs_out_of_the_budget_the_original_ran_out_of(problem
 
 
 def test_truncated_plans_are_recorded_in_the_result(problems, domain_factory) -> None:
-    from stalm.proposers.language_model import Proposal
+    from stalm.proposers.protocol import Proposal
 
     episode = Episode.begin(problems["P2"], 60.0)
     plan = (Pick("bottle2"),)
