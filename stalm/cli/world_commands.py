@@ -40,8 +40,9 @@ def _problem_row(problem: Problem) -> tuple[str, ...]:
 
 def check_scenes(problems: list[Problem], show: Callable[[str], None]) -> None:
     """The simulator's check of each problem's scene (a StalmError naming the faults), then a
-    warning per object no action can ever move; ``show`` hears what is being checked, object
-    by object (a scene of 500 objects takes minutes)."""
+    warning per object no action can ever move and per object that does not rest where the
+    file puts it; ``show`` hears what is being checked, object by object (a scene of 500
+    objects takes minutes)."""
     from stalm.motion.problem_check import check_problem_geometry
 
     for problem in problems:
@@ -53,6 +54,23 @@ def check_scenes(problems: list[Problem], show: Callable[[str], None]) -> None:
             show(f"checking {name}: can each object be picked and put down? {done} of {total}")
 
         _warn_stuck(problem, progress)
+        show(f"checking {name}: does every object rest where the file puts it?")
+        _warn_unsettled(problem)
+
+
+def _warn_unsettled(problem: Problem) -> None:
+    """A warning per object that moves or tips over under gravity from where the problem puts
+    it (plans are kinematic: they would treat it as resting there)."""
+    from stalm.world.physics_check import SETTLE_SECONDS, unsettled_objects
+
+    for drift in unsettled_objects(problem):
+        warnings.print(
+            f"[yellow]warning:[/] {shown(problem.source)}: '{shown(drift.obj)}' does not rest "
+            f"where the file puts it: under gravity it moved {drift.displacement_m * 100:.1f} "
+            f"cm and tilted {drift.tilt_deg:.1f} deg in {SETTLE_SECONDS:g} s",
+            highlight=False,
+            soft_wrap=True,
+        )
 
 
 def _warn_stuck(problem: Problem, progress: Callable[[int, int], None]) -> None:
@@ -85,8 +103,9 @@ def problems_command(
         typer.Option(
             "--check/--no-check",
             help="Also check the scene in the simulator: nothing starts inside anything, no two "
-            "doors pass through each other, every standing pose is free and reachable, and "
-            "which objects can never be moved (default: on for --file).",
+            "doors pass through each other, every standing pose is free and reachable, "
+            "which objects can never be moved, and which do not rest under gravity where the "
+            "file puts them (default: on for --file).",
         ),
     ] = None,
 ) -> None:

@@ -144,14 +144,7 @@ def check_physics(
     gives them) under gravity one after the other and measure each; ``labels`` name the
     actions (``labels[i]`` made ``states[i + 1]``). The tolerances must be positive and the
     settling time at least one time step (a StalmError names the one that is not)."""
-    for name, value in (("tolerance_m", tolerance_m), ("tolerance_deg", tolerance_deg)):
-        if not (math.isfinite(value) and value > 0):
-            raise StalmError(f"check_physics: {name} must be a positive number, got {value!r}")
-    if not (math.isfinite(settle_seconds) and settle_seconds >= TIME_STEP):
-        raise StalmError(
-            f"check_physics: settle_seconds must be at least one time step ({TIME_STEP:.6g} s), "
-            f"got {settle_seconds!r}"
-        )
+    _check_terms("check_physics", settle_seconds, tolerance_m, tolerance_deg)
     world = _PhysicsWorld(problem)
     try:
         steps = []
@@ -168,6 +161,52 @@ def check_physics(
         world.close()
 
 
+def unsettled_objects(
+    problem: Problem,
+    state: State | None = None,
+    *,
+    settle_seconds: float = SETTLE_SECONDS,
+    tolerance_m: float = TOLERANCE_M,
+    tolerance_deg: float = TOLERANCE_DEG,
+) -> tuple[ObjectDrift, ...]:
+    """Every object that does not rest where ``state`` (the problem's initial state by
+    default) puts it: each that moved or tilted beyond the tolerance after settling under
+    gravity, the furthest beyond first. A problem file can place a cylinder half over a
+    region's edge or a grill on its handles; the planner, being kinematic, would never notice,
+    and :func:`check_physics` would then fail every plan at its initial state."""
+    _check_terms("unsettled_objects", settle_seconds, tolerance_m, tolerance_deg)
+    state = problem.initial_state if state is None else state
+    world = _PhysicsWorld(problem)
+    try:
+        world.show(None, state)
+        world.settle(round(settle_seconds / TIME_STEP))
+        drifts = [world.drift(name, pose) for name, pose in state.poses]
+    finally:
+        world.close()
+    beyond = [d for d in drifts if _excess(d, tolerance_m, tolerance_deg) > 1.0]
+    return tuple(sorted(beyond, key=lambda d: -_excess(d, tolerance_m, tolerance_deg)))
+
+
+def _check_terms(
+    caller: str, settle_seconds: float, tolerance_m: float, tolerance_deg: float
+) -> None:
+    """A StalmError naming the first term of a check that is no positive number (or a
+    settling time shorter than one step)."""
+    for name, value in (("tolerance_m", tolerance_m), ("tolerance_deg", tolerance_deg)):
+        if not (math.isfinite(value) and value > 0):
+            raise StalmError(f"{caller}: {name} must be a positive number, got {value!r}")
+    if not (math.isfinite(settle_seconds) and settle_seconds >= TIME_STEP):
+        raise StalmError(
+            f"{caller}: settle_seconds must be at least one time step ({TIME_STEP:.6g} s), "
+            f"got {settle_seconds!r}"
+        )
+
+
+def _excess(drift: ObjectDrift, tolerance_m: float, tolerance_deg: float) -> float:
+    """How far ``drift`` is past the tolerance, as a multiple of it (above 1: beyond)."""
+    return max(drift.displacement_m / tolerance_m, drift.tilt_deg / tolerance_deg)
+
+
 def _label(labels: Sequence[str], index: int) -> str:
     return labels[index] if index < len(labels) else f"action {index + 1}"
 
@@ -176,7 +215,7 @@ def _step_check(
     index: int, label: str, drifts: list[ObjectDrift], tolerance_m: float, tolerance_deg: float
 ) -> StepCheck:
     def excess(drift: ObjectDrift) -> float:
-        return max(drift.displacement_m / tolerance_m, drift.tilt_deg / tolerance_deg)
+        return _excess(drift, tolerance_m, tolerance_deg)
 
     moved = max(drifts, key=lambda d: d.displacement_m, default=None)
     tilted = max(drifts, key=lambda d: d.tilt_deg, default=None)

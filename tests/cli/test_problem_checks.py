@@ -19,8 +19,9 @@ def test_problems_file_says_how_far_its_check_is(problems: dict[str, Problem]) -
     heard: list[str] = []
     world_commands.check_scenes([problems["P2"]], heard.append)
     assert heard[0] == "checking P2's scene in the simulator..."
-    counts = [line.rsplit(" ", 3)[1:] for line in heard[1:]]
+    counts = [line.rsplit(" ", 3)[1:] for line in heard[1:-1]]
     assert heard[1].startswith("checking P2: can each object be picked and put down? ")
+    assert heard[-1] == "checking P2: does every object rest where the file puts it?"
     assert counts == [[str(done), "of", "4"] for done in range(5)]
 
 
