@@ -37,7 +37,6 @@ from stalm.proposers.language_model import LLMProposer
 from stalm.proposers.noisy import NoisyProposer
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
 from stalm.settings.io import with_overrides, with_values
-from stalm.settings.planner_config import PlannerConfig
 from stalm.settings.tree import RunSettings
 from stalm.trial.replay import ReplayReport, replay_plan
 from stalm.trial.result import PlanResult
@@ -68,7 +67,6 @@ __all__ = [
     "Pick",
     "Place",
     "PlanResult",
-    "PlannerConfig",
     "Problem",
     "ProblemSpec",
     "Proposal",

@@ -27,7 +27,6 @@ from typing import Any
 from stalm.errors import StalmError
 from stalm.planners.registry import build_planner, resolve
 from stalm.settings.io import changed, to_dict
-from stalm.settings.planner_config import PlannerConfig
 from stalm.settings.tree import FLAT_NAMES, RunSettings, with_budget
 from stalm.temp_folders import temporary_folder
 from stalm.world.physics_check import check_physics
@@ -100,12 +99,14 @@ KEYLESS = ("llm.cache", "llm.cache_file", "llm.from_record")
 
 
 def _config_json(settings: RunSettings) -> dict[str, Any]:
-    """The settings as a trial's key sees them: the flat :class:`PlannerConfig` choices as
-    keys were computed before the settings tree (so existing results logs still resume),
-    and, only if the tree differs from its defaults elsewhere, those other settings."""
-    data = dataclasses.asdict(PlannerConfig.from_settings(settings))
-    data.pop("cache_mode")
-    data.pop("cache_file")
+    """The settings as a trial's key sees them: the flat choices (:data:`FLAT_NAMES`, and
+    the prompt section) as keys were computed before the settings tree (so existing results
+    logs still resume), and, only if the tree differs from its defaults elsewhere, those
+    other settings. Where replies come from is not among them (:data:`KEYLESS`)."""
+    data: dict[str, Any] = {
+        name: _at(settings, path) for name, path in FLAT_NAMES.items() if path not in KEYLESS
+    }
+    data["prompt"] = dataclasses.asdict(settings.prompt)
     if not data["prompt"]["cannot_actions"]:
         del data["prompt"]["cannot_actions"]  # added later: runs that leave it off keep keys
     prompt = {f"prompt.{f.name}" for f in dataclasses.fields(settings.prompt)}
@@ -114,6 +115,12 @@ def _config_json(settings: RunSettings) -> dict[str, Any]:
     if others:
         data["settings"] = others
     return data
+
+
+def _at(settings: RunSettings, path: str) -> Any:
+    """The value at a dotted ``section.name`` path of the tree."""
+    section, name = path.split(".")
+    return getattr(getattr(settings, section), name)
 
 
 def versions() -> dict[str, str]:

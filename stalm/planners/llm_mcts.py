@@ -38,14 +38,15 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.mdp import RewardSettings
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
+from stalm.progress import Progress
 from stalm.proposers.language_model import LLMProposer
+from stalm.proposers.model_backend import llm_backend, use_constraint
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
 from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
 from stalm.search.policies import ValueFunction
 from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
 from stalm.search.search_mdp import SearchMDP
 from stalm.search.tree import Edge, SearchTree
-from stalm.settings.planner_config import Progress, llm_backend, use_constraint
 from stalm.settings.tree import DEFAULT_SIMS, RunSettings
 from stalm.trial.online import ConfiguredPlanner, Decision, Sampling, Trial
 from stalm.trial.query_seeds import state_request_seed

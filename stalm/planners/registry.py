@@ -2,12 +2,11 @@
 
 ``stalm solve --planner NAME``, ``stalm rerun`` and ``stalm experiment`` all go through
 :func:`build_planner`, so a planner is configured the same way wherever it runs, from a
-:class:`~stalm.settings.tree.RunSettings` (or the flat
-:class:`~stalm.settings.planner_config.PlannerConfig` that names one). The registry sits above the
+:class:`~stalm.settings.tree.RunSettings`. The registry sits above the
 planner modules; its table holds one small builder per planner that imports the planner's
 module when it is called, so listing the planners (``stalm planners``, ``--help``) or
 resolving settings loads none of them. What the planners share with it lives below both:
-:mod:`stalm.settings.planner_config` and :mod:`stalm.settings.tree`.
+:mod:`stalm.settings.tree` and :mod:`stalm.proposers.model_backend`.
 """
 
 from __future__ import annotations
@@ -17,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from stalm.errors import StalmError
-from stalm.settings.planner_config import PlannerConfig, Progress
+from stalm.progress import Progress
 from stalm.settings.tree import RunSettings
 from stalm.trial.result import Planner
 from stalm.world.problem import Problem
@@ -201,10 +200,8 @@ def resolve(name: str, settings: RunSettings, problem: Problem | None = None) ->
 
 def build_planner(
     name: str,
-    config: RunSettings | PlannerConfig | None = None,
+    config: RunSettings | None = None,
     progress: Progress | None = None,
 ) -> Planner:
     """The planner ``name`` configured by ``config`` (defaults: the paper's settings)."""
-    if isinstance(config, PlannerConfig):
-        config = config.to_settings()
     return planner_entry(name).build(config or RunSettings(), progress)

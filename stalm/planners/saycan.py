@@ -38,9 +38,10 @@ from stalm.domain.vocabulary import Vocabulary
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.saycan_prompt import saycan_prompt
 from stalm.predicates.literals import GroundLiteral
+from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
+from stalm.proposers.model_backend import llm_backend, use_constraint
 from stalm.search.puct import vote_prior
-from stalm.settings.planner_config import Progress, llm_backend, use_constraint
 from stalm.settings.tree import RunSettings
 from stalm.trial.episode import Episode
 from stalm.trial.online import Decision, OnlinePlanner, Sampling, Trial

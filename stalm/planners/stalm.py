@@ -30,10 +30,12 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
 from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
+from stalm.progress import Progress
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.feedback import failed_steps
 from stalm.proposers.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
 from stalm.proposers.language_model import LLMProposer
+from stalm.proposers.model_backend import llm_backend, use_constraint
 from stalm.proposers.noisy import NoisyProposer, injected_records
 from stalm.proposers.protocol import ProposalRequest, TaskPlanProposer
 from stalm.search import (
@@ -43,7 +45,6 @@ from stalm.search import (
     TaskPlan,
     concretize,
 )
-from stalm.settings.planner_config import Progress, llm_backend, use_constraint
 from stalm.settings.tree import ProposerKind, RunSettings
 from stalm.trial.online import Decision, Sampling, Trial
 from stalm.trial.query_seeds import stalm_proposal_seed

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from stalm.domain.params import Action
 from stalm.planners.stalm import StalmPlanner, StalmStep, proposer_for
+from stalm.progress import Progress
 from stalm.search import ConcretePlan
-from stalm.settings.planner_config import Progress
 from stalm.settings.tree import RunSettings
 from stalm.trial.step_log import StepRecord
 

@@ -10,8 +10,8 @@ predicates.
 from __future__ import annotations
 
 from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
+from stalm.progress import Progress
 from stalm.search import SearchPolicies
-from stalm.settings.planner_config import Progress
 from stalm.settings.tree import DEFAULT_SIMS, RunSettings
 from stalm.trial.online import Sampling, Trial
 

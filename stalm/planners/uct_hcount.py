@@ -13,9 +13,9 @@ from typing import Any
 
 from stalm.planners.tree_step import SearchStep, StalmSettings
 from stalm.planners.uct import UctPlanner
+from stalm.progress import Progress
 from stalm.search import SearchPolicies
 from stalm.search.hcount import HcountLeafValue
-from stalm.settings.planner_config import Progress
 from stalm.settings.tree import RunSettings
 from stalm.trial.online import Trial
 

@@ -71,8 +71,8 @@ FLAT_NAMES: dict[str, str] = {
     "goal_atom_lost": "rewards.goal_atom_lost",
     "goal_relations_only": "proposer.goal_relations_only",
 }
-"""The flat names of :class:`~stalm.settings.planner_config.PlannerConfig` (and of ``--set`` before
-the tree) and the tree path each one is; ``prompt`` is the tree's ``prompt`` section."""
+"""The flat names of the settings before the tree (still taken by ``--set``, settings files
+and records, and what a trial's key is computed from) and the tree path each one is."""
 
 
 def _check(section: str, checks: tuple[tuple[str, bool, str], ...], owner: object) -> None:

@@ -31,9 +31,8 @@ from stalm.predicates.deadline import DeadlinePassed
 from stalm.predicates.engine import PredicateCache, PredicateEngine
 from stalm.predicates.memo import PredicateMemo
 from stalm.predicates.samples import PredicateSettings
-from stalm.progress import TrialObserver, observer_of
+from stalm.progress import Progress, TrialObserver, observer_of
 from stalm.search import SearchSettings, SearchTree
-from stalm.settings.planner_config import Progress
 from stalm.settings.tree import RunSettings
 from stalm.trial.episode import Episode
 from stalm.trial.result import PlanResult, check_seed, check_time_budget

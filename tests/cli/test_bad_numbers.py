@@ -74,9 +74,10 @@ def _cli_message(monkeypatch, capsys, option: str, value: str) -> str:
 def test_the_api_checks_seed_and_budget_as_the_cli_does(
     monkeypatch, capsys, problems, planner, keyword, value, option, text
 ) -> None:
-    from stalm.api import PlannerConfig, StalmError, build_planner
+    from stalm.api import StalmError, build_planner
+    from tests.flat_settings import settings_of
 
-    built = build_planner(planner, PlannerConfig(proposer="symbolic", sims=1))
+    built = build_planner(planner, settings_of(proposer="symbolic", sims=1))
     arguments = {"seed": 0, "time_budget_s": 5.0, keyword: value}
     started = time.monotonic()
     with pytest.raises(StalmError) as error:
@@ -89,9 +90,10 @@ def test_the_api_checks_seed_and_budget_as_the_cli_does(
 
 @pytest.mark.parametrize("seed", [True, 1.5, "3"])
 def test_the_api_refuses_seeds_that_are_not_integers(problems, seed) -> None:
-    from stalm.api import PlannerConfig, StalmError, build_planner
+    from stalm.api import StalmError, build_planner
+    from tests.flat_settings import settings_of
 
-    built = build_planner("uct", PlannerConfig(sims=1))
+    built = build_planner("uct", settings_of(sims=1))
     with pytest.raises(StalmError, match="seed must be a non-negative integer"):
         built.solve(problems["P2"], seed=seed, time_budget_s=5.0)
 

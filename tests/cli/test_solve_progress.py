@@ -21,11 +21,11 @@ import stalm.cli.solve_output as solve_output
 from stalm.cli.solve_progress import SolveProgress, solve_progress
 from stalm.planners.registry import build_planner
 from stalm.progress import QUIET, TrialObserver, observer_of
-from stalm.settings.planner_config import PlannerConfig
 from stalm.settings.tree import RunSettings
 from stalm.trial.result import PhaseTimes
 from stalm.trial.timeout_advice import timeout_advice
 from tests.cli_runner import run_cli
+from tests.flat_settings import settings_of
 
 
 @pytest.fixture(autouse=True)
@@ -63,7 +63,7 @@ class RecordingObserverDouble(TrialObserver):
 
 
 def test_a_planner_tells_its_observer_where_it_is_and_decides_the_same(problems) -> None:
-    config = PlannerConfig(proposer="symbolic")
+    config = settings_of(proposer="symbolic")
     observer = RecordingObserverDouble()
     observed = build_planner("stalm", config, progress=observer).solve(problems["P2"], seed=0)
     alone = build_planner("stalm", config).solve(problems["P2"], seed=0)
@@ -100,7 +100,7 @@ def test_on_a_terminal_the_progress_line_shows_phase_step_and_predicates(problem
     terminal = Console(file=stream, force_terminal=True, width=200)
     with solve_progress(terminal, "solving P2...") as observer:
         assert isinstance(observer, SolveProgress)
-        planner = build_planner("stalm", PlannerConfig(proposer="symbolic"), progress=observer)
+        planner = build_planner("stalm", settings_of(proposer="symbolic"), progress=observer)
         planner.solve(problems["P2"], seed=0)
         observer.phase("predicates")  # shown once more, whatever the refresh caught
         observer.predicates("picks", 3, 9)

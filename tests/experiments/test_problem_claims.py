@@ -25,10 +25,10 @@ from stalm.experiments.claim_check import (
 )
 from stalm.experiments.trap_check import FirstProposal, first_proposal
 from stalm.planners.registry import build_planner
-from stalm.settings.planner_config import PlannerConfig
 from stalm.trial.replay import replay_plan, replay_result_json
 from stalm.world.problem import load_problem
 from stalm.world.state import Grasp, ObjectPose
+from tests.flat_settings import settings_of
 
 RESULTS = Path(__file__).resolve().parents[2] / "docs" / "results"
 TABLE2 = RESULTS / "issue27" / "stalm-symbolic-after-1a3cc06.jsonl"
@@ -129,7 +129,7 @@ def test_the_first_proposal_of_p5_puts_the_grill_first_and_fails() -> None:
 @pytest.mark.parametrize("name", ["P1", "P2", "P3", "P4"])
 def test_a_fresh_solve_meets_every_claim(name, seed) -> None:
     problem = load_problem(name)
-    planner = build_planner("stalm", PlannerConfig(proposer="symbolic"))
+    planner = build_planner("stalm", settings_of(proposer="symbolic"))
     result = planner.solve(problem, seed=seed, time_budget_s=problem.spec.time_budget_s)
     assert result.success, result.termination
     report = replay_plan(problem, problem.initial_state, list(result.plan))

@@ -22,10 +22,10 @@ from stalm.generate.suite import witness_path
 from stalm.generate.suite_index import INDEX, read_suite
 from stalm.motion.problem_check import problem_geometry_faults
 from stalm.planners.registry import build_planner
-from stalm.settings.planner_config import PlannerConfig
 from stalm.trial.replay import replay_plan
 from stalm.world.problem import load_problem
 from tests.cli_runner import run_cli
+from tests.flat_settings import settings_of
 
 
 @pytest.fixture(scope="module")
@@ -135,7 +135,7 @@ def test_a_solve_of_a_generated_trap_never_reaches_over_the_grill(seed) -> None:
     reach over it into the pocket behind."""
     generated = generate_problem(Knobs(objects=10, goals=2, trap=True), seed, "trap")
     problem = generated.problem
-    planner = build_planner("stalm", PlannerConfig(proposer="symbolic"))
+    planner = build_planner("stalm", settings_of(proposer="symbolic"))
     result = planner.solve(problem, seed=seed, time_budget_s=problem.spec.time_budget_s)
     assert result.success, result.termination
     report = replay_plan(problem, problem.initial_state, list(result.plan))

@@ -49,7 +49,7 @@ def test_replay_reads_the_default_cache_in_a_read_only_folder(clean_llm_env: Pat
 
 def test_replay_reads_a_named_read_only_cache_file(tmp_path: Path) -> None:
     """``--cache replay --set llm.cache_file=FILE``: the settings' path, opened read-only."""
-    from stalm.settings.planner_config import llm_backend
+    from stalm.proposers.model_backend import llm_backend
 
     path, replies = _recorded(tmp_path / "sent")
     values = {"llm.cache": "replay", "llm.cache_file": str(path), "llm.backend": "embedded"}

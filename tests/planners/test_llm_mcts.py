@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -31,12 +30,12 @@ from stalm.proposers.protocol import Proposal, ProposalRequest
 from stalm.search import SearchSettings, SearchTree, warm_started_uct
 from stalm.search.puct import uniform_prior
 from stalm.settings.io import with_overrides
-from stalm.settings.planner_config import PlannerConfig
 from stalm.settings.tree import RunSettings
 from stalm.trial.query_seeds import state_request_seed
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import load_problem
 from stalm.world.state import ObjectPose
+from tests.flat_settings import settings_of
 from tests.planners.mcts_doubles import (
     PlanFollowingBackendDouble,
     ScriptedRepliesBackendDouble,
@@ -246,29 +245,25 @@ def test_same_seed_and_replies_give_the_same_search_also_replayed_from_the_cache
 
 
 def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
-    planner = build_planner("llm-mcts", PlannerConfig(llm="http://127.0.0.1:9/v1#m"))
+    planner = build_planner("llm-mcts", settings_of(llm="http://127.0.0.1:9/v1#m"))
     assert isinstance(planner, LlmMctsPlanner) and planner.name == "llm-mcts"
     assert planner.settings.search.budget == 35 and planner.settings.search.c == 50.0
     assert planner.settings.samples == 5 and planner.settings.uniform_weight == 0.5
-    custom = build_llm_mcts(
-        PlannerConfig(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3).to_settings(), None
-    )
+    custom = build_llm_mcts(settings_of(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3), None)
     assert custom.settings.search.budget == 7 and custom.settings.samples == 3
     assert planner.settings.occlusion_predicates
-    no_occlusion = PlannerConfig(
-        llm="http://127.0.0.1:9/v1#m", prompt=PromptOptions(occlusion_predicates=False)
-    )
-    assert not build_llm_mcts(no_occlusion.to_settings(), None).settings.occlusion_predicates
+    no_occlusion = settings_of(llm="http://127.0.0.1:9/v1#m", prompt__occlusion_predicates=False)
+    assert not build_llm_mcts(no_occlusion, None).settings.occlusion_predicates
 
 
 def test_llm_mcts_reuses_the_tree_by_the_one_setting_of_every_tree_planner() -> None:
     """Tree reuse (issue 13) is on for LLM-MCTS as for STaLM and UCT, and the same setting
     (execution.reuse_tree, --set reuse_tree=false) switches it off for all of them."""
-    model = PlannerConfig(llm="http://127.0.0.1:9/v1#m")
+    model = settings_of(llm="http://127.0.0.1:9/v1#m")
     assert LlmMctsSettings.of(RunSettings()).reuse_tree
     for name in ("llm-mcts", "stalm", "uct", "uct-hcount"):
         assert build_planner(name, model).reuse_tree, name
-        off = replace(model, reuse_tree=False)
+        off = settings_of(llm="http://127.0.0.1:9/v1#m", reuse_tree=False)
         assert not build_planner(name, off).reuse_tree, name
 
 

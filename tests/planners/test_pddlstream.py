@@ -24,10 +24,10 @@ from stalm.planners.pddlstream.pddl_text import DOMAIN_PDDL
 from stalm.planners.pddlstream.planner import adaptive_for, fluents
 from stalm.planners.pddlstream.values import PoseValue, is_optimistic
 from stalm.proposers.fast_downward import translate_task
-from stalm.settings.planner_config import PlannerConfig
 from stalm.trial.replay import replay_plan
 from stalm.world.problem import Problem
 from stalm.world.state import ObjectPose
+from tests.flat_settings import settings_of
 
 
 @pytest.fixture(scope="module")
@@ -144,7 +144,7 @@ def test_an_execution_failure_becomes_a_fact_or_retires_the_motion(p2_domain) ->
 
 
 def test_the_registry_builds_it() -> None:
-    planner = build_pddlstream_adaptive(PlannerConfig().to_settings(), None)
+    planner = build_pddlstream_adaptive(settings_of(), None)
     assert isinstance(planner, PDDLStreamPlanner) and planner.name == "pddlstream-adaptive"
 
 

@@ -40,8 +40,8 @@ import stalm.llm.backends as backends
 from stalm.domain.actions import DiscreteAction
 from stalm.llm.prompt import PromptOptions
 from stalm.planners.registry import build_planner
-from stalm.settings.planner_config import PlannerConfig
 from stalm.world.problem import Problem, load_problem
+from tests.flat_settings import settings_of
 from tests.golden import assert_matches, read, write
 from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply
 from tests.planners.test_stalm import P2_PLAN
@@ -133,7 +133,7 @@ def _short(problem: Problem, horizon: int) -> Problem:
 
 def run_case(case: Case, problem: Problem) -> dict[str, Any]:
     """What the golden file keeps of one case's trial."""
-    config = PlannerConfig(llm="scripted", cache_mode="off", **case.config)
+    config = settings_of(llm="scripted", cache_mode="off", **case.config)
     with scripted_backend(case.reply):
         planner = build_planner(case.planner, config)
     result = planner.solve(_short(problem, case.horizon), case.seed, WALL_BUDGET_S)

@@ -12,9 +12,9 @@ from stalm.llm.prompt import Prompt
 from stalm.planners.iterative_replanning import IterativeReplanningPlanner, failed_plan
 from stalm.planners.registry import build_planner
 from stalm.search import TaskPlan, concretize
-from stalm.settings.planner_config import PlannerConfig
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import Problem
+from tests.flat_settings import settings_of
 from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply
 from tests.planners.test_stalm import P2_PLAN
 
@@ -143,6 +143,6 @@ def test_replanning_solves_p2_after_one_failed_plan_is_fed_back(problems) -> Non
 
 
 def test_the_registry_builds_iterative_replanning() -> None:
-    planner = build_planner("iterative-replanning", PlannerConfig(llm="embedded", cache_mode="off"))
+    planner = build_planner("iterative-replanning", settings_of(llm="embedded", cache_mode="off"))
     assert isinstance(planner, IterativeReplanningPlanner)
     assert planner.name == "iterative-replanning" and planner.settings.attempts_per_state == 5

@@ -25,9 +25,9 @@ from stalm.planners.saycan import (
     saycan_scores,
 )
 from stalm.predicates.literals import GroundLiteral
-from stalm.settings.planner_config import PlannerConfig
 from stalm.trial.episode import Episode
 from stalm.trial.replay import replay_result_json
+from tests.flat_settings import settings_of
 from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble, plan_reply
 from tests.planners.test_stalm import P2_PLAN
 
@@ -214,7 +214,7 @@ def test_saycan_solves_p2_when_the_replies_name_the_right_next_action(problems) 
 
 
 def test_the_registry_builds_ep_saycan_with_the_configured_batch() -> None:
-    planner = build_planner("ep-saycan", PlannerConfig(llm="embedded", batch=3, cache_mode="off"))
+    planner = build_planner("ep-saycan", settings_of(llm="embedded", batch=3, cache_mode="off"))
     assert isinstance(planner, EpSayCanPlanner)
     assert planner.name == "ep-saycan" and planner.settings.n_batch == 3
 

@@ -11,7 +11,6 @@ import yaml
 
 from stalm.domain.mdp import RewardSettings
 from stalm.errors import StalmError
-from stalm.llm.prompt import PromptOptions
 from stalm.planners.registry import build_planner, resolve
 from stalm.planners.stalm import StalmSettings
 from stalm.search import SearchSettings
@@ -23,39 +22,45 @@ from stalm.settings.io import (
     to_yaml,
     with_file,
     with_overrides,
+    with_values,
 )
-from stalm.settings.planner_config import PlannerConfig
-from stalm.settings.tree import RunSettings
+from stalm.settings.tree import FLAT_NAMES, RunSettings
 
 MODEL = "http://127.0.0.1:9/v1#m"
 """A server nothing listens on: building a planner never contacts it."""
 
 
-def test_the_flat_config_and_the_tree_have_the_same_defaults() -> None:
-    assert PlannerConfig().to_settings() == RunSettings()
-    assert PlannerConfig.from_settings(RunSettings()) == PlannerConfig()
-    flat = PlannerConfig(
-        llm="ollama:m",
-        proposer="symbolic",
-        sims=7,
-        batch=3,
-        feedback=False,
-        reuse_tree=False,
-        execution="best_q",
-        kappa_tries=1,
-        backtracks=2,
-        goal_atom_lost=0.0,
-        goal_relations_only=False,
-        prompt=PromptOptions(ask_challenges=False),
-        cache_mode="off",
+def test_the_flat_names_set_the_tree_paths_they_name() -> None:
+    """The flat names (``--set sims=7``, settings files and records written before the tree)
+    set exactly the tree's keys in :data:`FLAT_NAMES`, each value checked by the tree."""
+    flat = {
+        "llm": "ollama:m",
+        "proposer": "symbolic",
+        "sims": 7,
+        "batch": 3,
+        "feedback": False,
+        "reuse_tree": False,
+        "execution": "best_q",
+        "kappa_tries": 1,
+        "backtracks": 2,
+        "goal_atom_lost": 0.0,
+        "goal_relations_only": False,
+        "cache_mode": "off",
+    }
+    by_flat = with_values(RunSettings(), list(flat.items()), "flat")
+    by_path = with_values(
+        RunSettings(), [(FLAT_NAMES[name], value) for name, value in flat.items()], "paths"
     )
-    assert PlannerConfig.from_settings(flat.to_settings()) == flat
+    assert by_flat == by_path != RunSettings()
+    assert changed(by_flat) == {FLAT_NAMES[name]: value for name, value in flat.items()}
+    with pytest.raises(StalmError, match=r"search\.sims"):
+        with_values(RunSettings(), [("sims", -1)], "flat")
 
 
 def test_the_default_tree_builds_the_tree_planners_as_before() -> None:
-    """The StalmSettings the registry built from a default PlannerConfig before the tree."""
+    """The StalmSettings the registry built from the flat defaults before the tree."""
     for planner, budget, proposer in (("stalm", 30, "llm"), ("uct", 35, "llm")):
-        settings = PlannerConfig(proposer=proposer).to_settings()
+        settings = with_values(RunSettings(), [("proposer", proposer)], "test")
         before = StalmSettings(
             n_batch=5,
             search=SearchSettings(budget=budget),
@@ -72,7 +77,7 @@ def test_the_default_tree_builds_the_tree_planners_as_before() -> None:
         )
         assert StalmSettings.of(settings, planner, proposes=planner == "stalm") == before
     symbolic = StalmSettings.of(
-        PlannerConfig(proposer="symbolic").to_settings(), "stalm", proposes=True
+        with_values(RunSettings(), [("proposer", "symbolic")], "test"), "stalm", proposes=True
     )
     assert (symbolic.feedback, symbolic.backtracks) == (True, 6)
 

@@ -20,9 +20,9 @@ from stalm.planners.uct_hcount import UctHcountPlanner
 from stalm.predicates.engine import PredicateCache
 from stalm.predicates.memo import PredicateMemo
 from stalm.predicates.samples import MotionSamples
-from stalm.settings.planner_config import PlannerConfig
 from stalm.trial.episode import PhaseClock
 from stalm.trial.online import OnlinePlanner
+from tests.flat_settings import settings_of
 
 PLANNERS = Path(__file__).resolve().parents[2] / "stalm" / "planners"
 
@@ -133,7 +133,7 @@ def test_a_trial_ends_at_its_deadline_while_predicates_are_computed(
     for open_doors in (frozenset(), doors):
         p2.base_planner.roadmap(open_doors)
     budget = 1.0
-    config = PlannerConfig(proposer="symbolic")
+    config = settings_of(proposer="symbolic")
     result = build_planner(planner, config).solve(problems["P2"], seed=0, time_budget_s=budget)
     assert result.termination == "timeout" and not result.success
     assert result.times.total <= budget + 1.5, result.times  # less than the slowed predicates take

@@ -15,9 +15,9 @@ import time
 import pytest
 
 from stalm.planners.registry import build_planner
-from stalm.settings.planner_config import PlannerConfig
 from stalm.trial import online
 from stalm.world.scene import Sim
+from tests.flat_settings import settings_of
 
 BUDGET_S = 0.2
 SLOW_S = 3 * BUDGET_S
@@ -38,7 +38,7 @@ def slow_scene(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_a_set_up_that_outlasts_the_budget_ends_the_trial_as_a_timeout(
     problems, monkeypatch, slow_scene
 ) -> None:
-    planner = build_planner("uct", PlannerConfig())
+    planner = build_planner("uct", settings_of())
     started: list[object] = []
     start = type(planner).start
 
@@ -61,7 +61,7 @@ def test_a_set_up_that_outlasts_the_budget_ends_the_trial_as_a_timeout(
 @pytest.mark.parametrize("planner", ["uct", "pddlstream-adaptive"])
 def test_set_up_has_its_phase_in_every_trial(problems, slow_scene, planner: str) -> None:
     """Also the planner outside the online scaffold: its set-up seconds have their phase."""
-    result = build_planner(planner, PlannerConfig()).solve(
+    result = build_planner(planner, settings_of()).solve(
         problems["P2"], seed=0, time_budget_s=BUDGET_S
     )
     assert result.termination == "timeout"
@@ -83,7 +83,7 @@ def test_the_deadline_stops_building_a_scene_between_two_objects(problems, monke
 
     monkeypatch.setattr(scene_build, "_object_body", slow_object)
     p3 = problems["P3"]
-    result = build_planner("uct", PlannerConfig()).solve(p3, seed=0, time_budget_s=BUDGET_S)
+    result = build_planner("uct", settings_of()).solve(p3, seed=0, time_budget_s=BUDGET_S)
     assert result.termination == "timeout" and not result.success
     assert len(built) == 1 < len(p3.spec.objects)  # the deadline passed during the first
     assert result.plan == () and result.states == (p3.initial_state,)
