@@ -56,12 +56,13 @@ TEST_ARM = """<?xml version="1.0"?>
     <limit lower="-3" upper="3" velocity="3" effort="5"/></joint>
   <joint name="flange" type="fixed"><parent link="l6"/><child link="hand"/>
     <origin xyz="0 0 0.05" rpy="0 0 0.785"/></joint>
+  <joint name="tcp_joint" type="fixed"><parent link="hand"/><child link="tcp"/></joint>
   <joint name="finger_joint" type="prismatic"><parent link="hand"/><child link="finger"/>
     <origin xyz="0 0.02 0.05"/><axis xyz="0 1 0"/>
     <limit lower="0" upper="0.04" velocity="0.1" effort="5"/></joint>
 </robot>
 """
-TEST_ARM_LINKS = ("base", "l1", "l2", "spacer", "l3", "l4", "l5", "l6", "hand", "finger")
+TEST_ARM_LINKS = ("base", "l1", "l2", "spacer", "l3", "l4", "l5", "l6", "hand", "tcp", "finger")
 TEST_ARM_OFFSET = ((0.0, 0.01, 0.09), (0.0, 0.1, -0.2))
 
 
@@ -122,6 +123,8 @@ def test_the_test_arm_folds_fixed_joints_and_keeps_any_axis(test_arm: UrdfChain)
     lows, highs = test_arm.sample_bounds()
     assert (lows[3], highs[3]) == (-math.pi, math.pi) and lows[0] == -3.0
     assert test_arm.velocity_limits == (2.5, 2.0, 2.0, 3.0, 3.0, 3.0)
+    to_tcp = read_chain(test_arm.urdf, "base", "tcp", TEST_ARM_OFFSET)  # a joint without origin
+    assert np.array_equal(to_tcp.tool, test_arm.tool) and to_tcp.frame_names[-1] == "tcp"
 
 
 def test_generic_fk_is_the_pandas_hard_wired_fk() -> None:
@@ -292,15 +295,26 @@ def test_the_compiled_kernels_agree_with_their_source(test_arm: UrdfChain) -> No
     assert np.array_equal(result.attempts, result_again.attempts)
 
 
-def test_the_shared_steps_handle_half_turns() -> None:
-    """The orientation error of a half turn (where the rotation's skew part vanishes) is the
-    axis times pi, both compiled and interpreted."""
-    target = np.eye(4)
-    current = np.diag([1.0, -1.0, -1.0, 1.0])  # half a turn about x
+def test_the_shared_orientation_error_is_an_axis_times_its_angle() -> None:
+    """No turn, a small turn, and half turns (where the rotation's skew part vanishes and
+    the axis comes from the diagonal), both compiled and interpreted."""
+    small = np.eye(4)
+    small[:3, :3] = [
+        [1.0, 0.0, 0.0],
+        [0.0, math.cos(0.1), -math.sin(0.1)],
+        [0.0, math.sin(0.1), math.cos(0.1)],
+    ]
+    cases = [
+        (np.eye(4), (0.0, 0.0, 0.0)),
+        (small, (0.1, 0.0, 0.0)),
+        (np.diag([1.0, -1.0, -1.0, 1.0]), (math.pi, 0.0, 0.0)),  # half a turn about x
+        (np.diag([-1.0, -1.0, 1.0, 1.0]), (0.0, 0.0, math.pi)),  # ... and about z
+    ]
     for function in (dls_kernels.orientation_error, dls_kernels.orientation_error.py_func):
-        out = np.empty(3)
-        function(current, target, out, np.empty((3, 3)))
-        assert np.allclose(np.abs(out), (math.pi, 0.0, 0.0))
+        for target, expected in cases:
+            out = np.empty(3)
+            function(np.eye(4), target, out, np.empty((3, 3)))
+            assert np.allclose(np.abs(out), expected, atol=1e-12)
 
 
 URDF_ERRORS = [
