@@ -18,11 +18,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from stalm.motion.dls_kernels import orientation_error, solve_spd
+from stalm.motion.dls_kernels import STALL_STEPS, orientation_error, solve_spd
 from stalm.motion.urdf_chain import UrdfChain
 
-STALL_STEPS = 25
-"""IK gives up after this many steps without improving its error by 1% (a local minimum)."""
 ITERATIONS = 150
 DAMPING = 0.05
 

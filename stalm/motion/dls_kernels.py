@@ -1,8 +1,8 @@
-"""The two numerical steps every damped-least-squares IK here shares, compiled with numba.
+"""The steps every damped-least-squares IK here shares, compiled with numba, and when it stops.
 
 The Panda's hard-wired IK and the IK of any arm read from a URDF run the same loop: the
-orientation error as a rotation vector, and one solve of the damped normal equations. Kept in
-one place so both solvers take the same steps and a fix reaches both.
+orientation error as a rotation vector, one solve of the damped normal equations, the same
+stall rule. Kept in one place so both solvers take the same steps and a fix reaches both.
 """
 
 from __future__ import annotations
@@ -11,6 +11,9 @@ import math
 
 import numba
 import numpy as np
+
+STALL_STEPS = 25
+"""IK gives up after this many steps without improving its error by 1% (a local minimum)."""
 
 
 @numba.njit(cache=True)

@@ -26,7 +26,7 @@ import numba
 import numpy as np
 import pybullet_data
 
-from stalm.motion.dls_kernels import orientation_error, solve_spd
+from stalm.motion.dls_kernels import STALL_STEPS, orientation_error, solve_spd
 from stalm.motion.urdf_chain import origin_transform
 from stalm.world import robot as robot_model
 
@@ -49,8 +49,6 @@ LINK_NAMES = (
 )
 """The frames :func:`link_frames` computes, in this order (index 0: the base link)."""
 HAND, LEFT_FINGER, RIGHT_FINGER, GRASP = 8, 9, 10, 11
-STALL_STEPS = 25
-"""IK gives up after this many steps without improving its error by 1% (a local minimum)."""
 
 
 @dataclass(frozen=True)

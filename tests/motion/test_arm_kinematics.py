@@ -203,7 +203,8 @@ def _check_ik(kinematics: ArmKinematics, count: int, seeds_per_target: int, seed
         count, seeds_per_target, kinematics.dof
     )
     result = kinematics.solve_batch(base, targets, seeds, ik.POSITION_TOLERANCE, ik.ANGLE_TOLERANCE)
-    assert result.solved.sum() >= 0.9 * count
+    # all of them here (measured); one may go either way on another CPU's rounding
+    assert result.solved.sum() >= count - 1
     assert np.all(result.q >= kinematics.lows) and np.all(result.q <= kinematics.highs)
     assert np.all(result.attempts >= 1) and np.all(result.attempts <= seeds_per_target)
     for q, target, solved in zip(result.q, targets, result.solved, strict=True):
