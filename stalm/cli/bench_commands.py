@@ -185,20 +185,41 @@ def bench_predicates(
 
 @bench_app.command("ik")
 def bench_ik(
-    problems: Annotated[list[str] | None, typer.Argument(help="Problems (default P1..P6).")] = None,
-    targets: Annotated[int, typer.Option(help="Reachable targets per problem (at least 1).")] = 200,
+    problems: Annotated[
+        list[str] | None, typer.Argument(help="Problems (default P1..P6; the Panda only).")
+    ] = None,
+    targets: Annotated[
+        int, typer.Option(help="Reachable targets per problem or robot (at least 1).")
+    ] = 200,
     seed: Annotated[int, typer.Option(help="Seed of the targets and the IK restarts.")] = 0,
+    robot: Annotated[
+        str, typer.Option(help="The arm: panda (on its mobile base, per problem), xarm6, iiwa.")
+    ] = "panda",
+    attempts: Annotated[
+        int, typer.Option(help="Seeds per target for an arm other than the Panda (at least 1).")
+    ] = 20,
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Also write the rows as JSON.")
     ] = None,
 ) -> None:
-    """The compiled IK beside PyBullet's own on the same targets: time per attempt, reached."""
+    """The compiled IK beside PyBullet's own on the same targets: time, reached, missed."""
+    from stalm.motion.known_arms import known_arm
+
+    _check(seed, json_out, targets=targets, attempts=attempts)
+    known_arm(robot)
+    if robot != "panda":
+        if problems:
+            raise StalmError(
+                f"--robot {robot} is benchmarked fixed at the origin, without problems; "
+                f"got {' '.join(problems)}"
+            )
+        _bench_arm(robot, targets, seed, attempts, json_out)
+        return
     from stalm.experiments.bench_ik import run
 
-    _check(seed, json_out, targets=targets)
     names = problems or ["P1", "P2", "P3", "P4", "P5", "P6"]
     table = Table(title="IK: compiled / PyBullet's (the reference)")
-    for column in ("problem", "targets", "us per attempt", "reached"):
+    for column in ("problem", "targets", "us per attempt", "reached", "missed"):
         table.add_column(column, justify="right")
 
     def report(row: dict[str, object]) -> None:
@@ -209,12 +230,36 @@ def bench_ik(
             str(row["targets"]),
             f"{new * 1e6:.0f} / {old * 1e6:.0f} = {old / new:.0f}x",
             f"{row['reached']} / {row['reference_reached']}",
+            str(row["missed"]),
         )
 
     with console.status("benchmarking IK..."):
         rows = run(names, targets, seed, report)
     console.print(table)
     _write_rows(json_out, rows)
+
+
+def _bench_arm(robot: str, targets: int, seed: int, attempts: int, json_out: Path | None) -> None:
+    """``stalm bench ik --robot NAME`` for an arm other than the Panda: one row."""
+    from stalm.experiments.bench_ik import bench_arm
+
+    with console.status(f"benchmarking IK of {robot}..."):
+        row = bench_arm(robot, targets, seed, attempts)
+    table = Table(title=f"IK of {robot}, fixed: batched / PyBullet's (the reference)")
+    for column in ("robot", "joints", "targets", "us per target", "reached", "missed"):
+        table.add_column(column, justify="right")
+    new, old = row["solve_s"], row["reference_solve_s"]
+    assert isinstance(new, float) and isinstance(old, float)
+    table.add_row(
+        robot,
+        str(row["joints"]),
+        str(row["targets"]),
+        f"{new * 1e6:.0f} / {old * 1e6:.0f} = {old / new:.0f}x",
+        f"{row['reached']} / {row['reference_reached']}",
+        str(row["missed"]),
+    )
+    console.print(table)
+    _write_rows(json_out, [row])
 
 
 @bench_app.command("search")

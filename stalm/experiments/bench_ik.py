@@ -7,7 +7,15 @@ kinematics; its grasp pose is the target. Each target is then solved from the sa
 least squares compiled with numba, what every planner runs) and by
 :func:`stalm.motion.ik_reference.pybullet_refine` (PyBullet's ``calculateInverseKinematics``
 with joint resets and a forward-kinematics check, what stalm ran before). Wall times of this
-process (``time.perf_counter``); both in one run on one machine.
+process (``time.perf_counter``); both in one run on one machine. ``missed`` counts targets
+the reference reached and the compiled solver did not.
+
+Any other arm (``--robot``: :data:`stalm.motion.known_arms.KNOWN_ARMS`) is benchmarked alone,
+fixed at the world origin in its own PyBullet client: targets are the tool frames of
+configurations drawn uniformly inside its limits, and each is solved from the same seeds
+(drawn uniformly too, tried in order until one reaches it) by the compiled
+:mod:`stalm.motion.arm_kinematics` (all targets in one batched call) and by PyBullet's
+``calculateInverseKinematics`` (:class:`stalm.motion.ik_reference.PyBulletArm`).
 """
 
 from __future__ import annotations
@@ -19,7 +27,9 @@ import numpy as np
 
 from stalm.geometry.transforms import Pose3, quat_from_matrix
 from stalm.motion import ik, panda
-from stalm.motion.ik_reference import pybullet_refine
+from stalm.motion.arm_kinematics import ArmKinematics
+from stalm.motion.ik_reference import PyBulletArm, pybullet_refine
+from stalm.motion.known_arms import known_chain
 from stalm.world import robot as robot_model
 from stalm.world.problem import load_problem
 from stalm.world.scene import Sim
@@ -50,16 +60,20 @@ def _solve_all(
     refine: Callable[[tuple[float, float, float], Pose3, float, tuple[float, ...]], object],
     targets: list[Target],
     seeds: list[tuple[float, ...]],
-) -> tuple[float, int]:
-    """Seconds per attempt and targets reached (the first seed that reaches one counts)."""
-    attempts = reached = 0
+) -> tuple[float, list[bool]]:
+    """Seconds per attempt and whether each target was reached (by the first seed that
+    reaches it)."""
+    attempts = 0
+    reached = []
     start = time.perf_counter()
     for (stand, pose, lift), random_seed in zip(targets, seeds, strict=True):
+        hit = False
         for seed in (ik.NOMINAL_ARM, random_seed):
             attempts += 1
             if refine(stand, pose, lift, seed) is not None:
-                reached += 1
+                hit = True
                 break
+        reached.append(hit)
     return (time.perf_counter() - start) / max(attempts, 1), reached
 
 
@@ -84,8 +98,54 @@ def bench_problem(name: str, count: int = 200, seed: int = 0) -> dict[str, objec
         "targets": len(targets),
         "attempt_s": compiled_s,
         "reference_attempt_s": reference_s,
-        "reached": compiled_reached,
-        "reference_reached": reference_reached,
+        "reached": sum(compiled_reached),
+        "reference_reached": sum(reference_reached),
+        "missed": _missed(compiled_reached, reference_reached),
+    }
+
+
+def _missed(reached: list[bool], reference_reached: list[bool]) -> int:
+    """Targets the reference reached and the compiled solver did not."""
+    return sum(ref and not new for new, ref in zip(reached, reference_reached, strict=True))
+
+
+def bench_arm(robot: str, count: int = 200, seed: int = 0, attempts: int = 20) -> dict[str, object]:
+    """One arm's row (see the module): seconds per target and targets reached by both
+    solvers, each trying the same ``attempts`` seeds per target in order."""
+    chain = known_chain(robot)
+    kinematics = ArmKinematics(chain)
+    rng = np.random.default_rng(seed)
+    reference = PyBulletArm(chain)
+    try:
+        base = reference.base
+        targets = kinematics.frames_batch(base, kinematics.random_configurations(rng, count))[:, -1]
+        seeds = kinematics.random_configurations(rng, count * attempts).reshape(
+            count, attempts, chain.dof
+        )
+        tolerances = (ik.POSITION_TOLERANCE, ik.ANGLE_TOLERANCE)
+        kinematics.solve_batch(base, targets[:1], seeds[:1], *tolerances)  # compiled code loaded
+        start = time.perf_counter()
+        result = kinematics.solve_batch(base, targets, seeds, *tolerances)
+        compiled_s = (time.perf_counter() - start) / count
+        start = time.perf_counter()
+        reference_reached = [
+            any(reference.refine(target, start_q) is not None for start_q in target_seeds)
+            for target, target_seeds in zip(targets, seeds, strict=True)
+        ]
+        reference_s = (time.perf_counter() - start) / count
+    finally:
+        reference.close()
+    return {
+        "robot": robot,
+        "joints": chain.dof,
+        "targets": count,
+        "seeds": attempts,
+        "solve_s": compiled_s,
+        "reference_solve_s": reference_s,
+        "reached": int(result.solved.sum()),
+        "reference_reached": sum(reference_reached),
+        "missed": _missed([bool(v) for v in result.solved], reference_reached),
+        "mean_attempts": float(result.attempts.mean()),
     }
 
 

@@ -26,6 +26,8 @@ import numba
 import numpy as np
 import pybullet_data
 
+from stalm.motion.dls_kernels import STALL_STEPS, orientation_error, solve_spd
+from stalm.motion.urdf_chain import origin_transform
 from stalm.world import robot as robot_model
 
 URDF = Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf"
@@ -47,30 +49,6 @@ LINK_NAMES = (
 )
 """The frames :func:`link_frames` computes, in this order (index 0: the base link)."""
 HAND, LEFT_FINGER, RIGHT_FINGER, GRASP = 8, 9, 10, 11
-STALL_STEPS = 25
-"""IK gives up after this many steps without improving its error by 1% (a local minimum)."""
-
-
-def _transform(xyz: str | None, rpy: str | None) -> np.ndarray:
-    """A URDF origin (xyz, rpy as fixed-axis roll, pitch, yaw) as a 4x4 transform."""
-    x, y, z = (float(v) for v in (xyz or "0 0 0").split())
-    roll, pitch, yaw = (float(v) for v in (rpy or "0 0 0").split())
-    cr, sr, cp, sp, cy, sy = (
-        math.cos(roll),
-        math.sin(roll),
-        math.cos(pitch),
-        math.sin(pitch),
-        math.cos(yaw),
-        math.sin(yaw),
-    )
-    matrix = np.eye(4)
-    matrix[:3, :3] = [
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ]
-    matrix[:3, 3] = (x, y, z)
-    return matrix
 
 
 @dataclass(frozen=True)
@@ -100,7 +78,7 @@ def panda_chain() -> PandaChain:
 
     def origin(joint_name: str) -> np.ndarray:
         node = joints[joint_name].find("origin")
-        return _transform(
+        return origin_transform(
             None if node is None else node.get("xyz"), None if node is None else node.get("rpy")
         )
 
@@ -120,7 +98,7 @@ def panda_chain() -> PandaChain:
         if collision is None:
             continue
         node = collision.find("origin")
-        origins[str(link.get("name"))] = _transform(
+        origins[str(link.get("name"))] = origin_transform(
             None if node is None else node.get("xyz"), None if node is None else node.get("rpy")
         )
         mesh = collision.find("geometry/mesh")
@@ -199,69 +177,6 @@ def link_frames(base: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _orientation_error(
-    current: np.ndarray, target: np.ndarray, out: np.ndarray, rel: np.ndarray
-) -> None:
-    """The rotation vector taking ``current`` to ``target`` (their 3x3 parts, world frame):
-    ``target @ current.T`` as an axis times its angle, into ``out`` (3); ``rel`` (3x3) is
-    work space."""
-    for i in range(3):
-        for j in range(3):
-            rel[i, j] = (
-                target[i, 0] * current[j, 0]
-                + target[i, 1] * current[j, 1]
-                + target[i, 2] * current[j, 2]
-            )
-    cosine = min(1.0, max(-1.0, (rel[0, 0] + rel[1, 1] + rel[2, 2] - 1.0) / 2.0))
-    angle = math.acos(cosine)
-    ax, ay, az = rel[2, 1] - rel[1, 2], rel[0, 2] - rel[2, 0], rel[1, 0] - rel[0, 1]
-    norm = math.sqrt(ax * ax + ay * ay + az * az)
-    if norm > 1e-9:
-        scale = angle / norm
-        out[0], out[1], out[2] = ax * scale, ay * scale, az * scale
-        return
-    if angle < 1e-6:
-        out[0], out[1], out[2] = 0.0, 0.0, 0.0
-        return
-    k = 0  # a half turn: the axis from the symmetric part's largest diagonal
-    for i in range(3):
-        if rel[i, i] > rel[k, k]:
-            k = i
-    column = math.sqrt(max((rel[k, k] + 1.0) / 2.0, 1e-12))
-    for i in range(3):
-        value = column if i == k else (rel[i, k] + rel[k, i]) / (4.0 * column)
-        out[i] = value * angle
-
-
-@numba.njit(cache=True)
-def _solve_spd(
-    matrix: np.ndarray, rhs: np.ndarray, out: np.ndarray, lower: np.ndarray, y: np.ndarray
-) -> None:
-    """``out = matrix^-1 rhs`` for a symmetric positive definite ``matrix`` (Cholesky; ``lower``
-    (n x n) and ``y`` (n) are work space)."""
-    n = matrix.shape[0]
-    for i in range(n):
-        for j in range(i + 1):
-            total = matrix[i, j]
-            for k in range(j):
-                total -= lower[i, k] * lower[j, k]
-            if i == j:
-                lower[i, i] = math.sqrt(max(total, 1e-18))
-            else:
-                lower[i, j] = total / lower[j, j]
-    for i in range(n):
-        total = rhs[i]
-        for k in range(i):
-            total -= lower[i, k] * y[k]
-        y[i] = total / lower[i, i]
-    for i in range(n - 1, -1, -1):
-        total = y[i]
-        for k in range(i + 1, n):
-            total -= lower[k, i] * out[k]
-        out[i] = total / lower[i, i]
-
-
-@numba.njit(cache=True)
 def ik_dls(
     base: np.ndarray,
     target: np.ndarray,
@@ -296,7 +211,7 @@ def ik_dls(
         end = frames[GRASP]
         for k in range(3):
             error[k] = target[k, 3] - end[k, 3]
-        _orientation_error(end, target, error[3:], rel)
+        orientation_error(end, target, error[3:], rel)
         position = math.sqrt(error[0] ** 2 + error[1] ** 2 + error[2] ** 2)
         angle = math.sqrt(error[3] ** 2 + error[4] ** 2 + error[5] ** 2)
         if position + 0.1 * angle < 0.99 * (best_position + 0.1 * best_angle):
@@ -324,7 +239,7 @@ def ik_dls(
                 for k in range(7):
                     total += jacobian[r, k] * jacobian[c, k]
                 system[r, c] = total + (damping * damping if r == c else 0.0)
-        _solve_spd(system, error, weights, lower, y)
+        solve_spd(system, error, weights, lower, y)
         for i in range(7):
             step = 0.0
             for r in range(6):
