@@ -28,7 +28,9 @@ _FIELD_CHARS = 40
 REQUIRED_FIELDS = ("name", "regions", "objects", "robot", "goal")
 
 
-def _format_validation_error(path: str, error: ValidationError) -> str:
+def format_validation_error(path: str, error: ValidationError) -> str:
+    """Pydantic's errors as lines ``path: field.path: message`` (at most
+    :data:`MAX_ERROR_LINES`); robot files share it, so their errors read the same."""
     items = error.errors()
     lines = []
     for item in items[:MAX_ERROR_LINES]:
@@ -106,7 +108,7 @@ def parse_problem(data: object, source: str = "<problem>") -> ProblemSpec:
     try:
         return ProblemSpec.model_validate(data)
     except ValidationError as error:
-        raise StalmError(_format_validation_error(source, error)) from None
+        raise StalmError(format_validation_error(source, error)) from None
 
 
 def load_problem_file(path: Path) -> ProblemSpec:

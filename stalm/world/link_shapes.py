@@ -1,0 +1,105 @@
+"""The convex shapes each link of a URDF collides with, as PyBullet builds them.
+
+A link on a moving body collides as convex shapes: each collision mesh becomes the convex hull
+of its vertices (a mesh of several objects, a hull per object) and primitives stay primitives.
+Here each collision element of a link becomes one convex point set in the link's URDF frame
+whose hull contains what PyBullet collides with:
+
+- a mesh: the vertices ``getMeshData`` returns (the hulls' vertices, in the link's *inertial*
+  frame, moved here into the URDF frame). A mesh of several hulls gives one point set for them
+  all: its hull contains theirs, a looser but still containing shape;
+- a box: its corners;
+- a sphere, cylinder or capsule: a polytope circumscribing it (its faces lie on or outside
+  the curved surface), so that covering the polytope covers the primitive.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as p
+
+from stalm.geometry.transforms import pose_matrix
+from stalm.world.robot_urdf import UrdfBody
+
+CIRCLE_SIDES = 32
+"""Sides of the polygon circumscribing a cylinder's circle."""
+SPHERE_POINTS = 162
+"""Points of the polytope circumscribing a sphere (or a capsule's end)."""
+
+
+def _fibonacci_sphere(count: int) -> np.ndarray:
+    index = np.arange(count) + 0.5
+    polar = np.arccos(1.0 - 2.0 * index / count)
+    azimuth = math.pi * (1.0 + 5.0**0.5) * index
+    return np.column_stack(
+        (np.cos(azimuth) * np.sin(polar), np.sin(azimuth) * np.sin(polar), np.cos(polar))
+    )
+
+
+def _unit_ball_polytope() -> np.ndarray:
+    """Points whose hull contains the unit ball: Fibonacci points scaled so that the hull's
+    nearest face to the centre is 1 away."""
+    from scipy.spatial import ConvexHull
+
+    points = _fibonacci_sphere(SPHERE_POINTS)
+    inradius = float(-ConvexHull(points).equations[:, 3].max())
+    return points / inradius
+
+
+def _primitive_points(kind: int, dimensions: tuple[float, ...]) -> np.ndarray:
+    if kind == p.GEOM_BOX:
+        half = np.asarray(dimensions[:3]) / 2.0
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+        return signs * half
+    if kind == p.GEOM_SPHERE:
+        return _unit_ball_polytope() * dimensions[0]
+    if kind == p.GEOM_CYLINDER:
+        length, radius = dimensions[0], dimensions[1]
+        angles = np.linspace(0.0, 2.0 * math.pi, CIRCLE_SIDES, endpoint=False)
+        outer = radius / math.cos(math.pi / CIRCLE_SIDES)
+        ring = np.column_stack((outer * np.cos(angles), outer * np.sin(angles)))
+        return np.vstack(
+            [np.column_stack((ring, np.full(CIRCLE_SIDES, z))) for z in (-length / 2, length / 2)]
+        )
+    if kind == p.GEOM_CAPSULE:
+        length, radius = dimensions[0], dimensions[1]
+        ball = _unit_ball_polytope() * radius
+        return np.vstack([ball + np.array([0.0, 0.0, z]) for z in (-length / 2, length / 2)])
+    raise ValueError(f"collision geometry type {kind} has no convex shape here")
+
+
+def _apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
+    return points @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def link_convex_parts(loaded: UrdfBody, link: int) -> list[np.ndarray]:
+    """The convex point sets (n x 3, URDF link frame) of one link's collision elements; empty
+    for a link without collision geometry (a bare frame such as a grasp target)."""
+    c = loaded.client
+    inertial = loaded.inertial_offset(link)
+    shapes = p.getCollisionShapeData(loaded.body, link, physicsClientId=c)
+    parts: list[np.ndarray] = []
+    for number, shape in enumerate(shapes):
+        kind = int(shape[2])
+        if kind == p.GEOM_MESH:
+            if len(shapes) == 1:  # every hull of a multi-object mesh, not only the first
+                mesh = p.getMeshData(loaded.body, link, physicsClientId=c)
+            else:
+                mesh = p.getMeshData(
+                    loaded.body, link, collisionShapeIndex=number, physicsClientId=c
+                )
+            points = np.asarray(mesh[1], dtype=float).reshape(-1, 3)
+        else:
+            local = pose_matrix((shape[5], shape[6]))
+            points = _apply(local, _primitive_points(kind, tuple(shape[3])))
+        if len(points):
+            parts.append(_apply(inertial, points))
+    return parts
+
+
+def body_convex_parts(loaded: UrdfBody) -> dict[str, list[np.ndarray]]:
+    """:func:`link_convex_parts` of every link that has collision geometry, by link name."""
+    parts = {name: link_convex_parts(loaded, index) for name, index in loaded.links.items()}
+    return {name: shapes for name, shapes in parts.items() if shapes}
