@@ -12,7 +12,8 @@ name; any other loads by path.
 This module checks what the file alone can say (types, ranges, an ordered lift range); what
 needs the URDF (links that exist, a serial arm of 6 or 7 revolute joints, a carry
 configuration inside the limits, a gripper opening the fingers allow) is checked by
-:func:`load_robot` through :mod:`stalm.world.robot_urdf`. Errors name the file and the field,
+:func:`~stalm.world.robot_loader.load_robot` through
+:mod:`stalm.world.robot_urdf`. Errors name the file and the field,
 as a problem file's do.
 """
 
@@ -171,18 +172,6 @@ class Robot:
         return self.spec.acceleration_limits
 
 
-def builtin_robots() -> tuple[str, ...]:
-    """Names of the robots shipped with stalm, sorted."""
-    return tuple(sorted(path.stem for path in ROBOTS_DIR.glob("*.yaml")))
-
-
-def robot_file(name_or_path: str) -> Path:
-    """The file of a built-in robot's name, else ``name_or_path`` as a path."""
-    if name_or_path in builtin_robots():
-        return ROBOTS_DIR / f"{name_or_path}.yaml"
-    return Path(name_or_path)
-
-
 def resolve_urdf(urdf: str, robot_dir: Path) -> Path:
     """The URDF file a robot file's ``urdf`` names (``pybullet_data:`` or relative to the
     robot file's folder)."""
@@ -211,12 +200,3 @@ def read_robot_spec(path: Path) -> RobotSpec:
     """Read and validate a robot file (what it says alone, no URDF read)."""
     text = read_text(path, MAX_PROBLEM_FILE_BYTES, "robot file")
     return parse_robot(load_yaml(text, str(path)), str(path))
-
-
-def load_robot(name_or_path: str) -> Robot:
-    """A built-in robot by name or a robot file by path, validated against its URDF."""
-    from stalm.world.robot_urdf import check_against_urdf
-
-    path = robot_file(name_or_path)
-    spec = read_robot_spec(path)
-    return check_against_urdf(spec, str(path), resolve_urdf(spec.urdf, path.parent))

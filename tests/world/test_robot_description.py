@@ -16,14 +16,9 @@ import yaml
 from stalm.errors import StalmError
 from stalm.world import robot as panda_robot
 from stalm.world import robot_limits
-from stalm.world.robot_description import (
-    FixedMount,
-    MobileMount,
-    builtin_robots,
-    load_robot,
-    robot_file,
-)
+from stalm.world.robot_description import FixedMount, MobileMount
 from stalm.world.robot_facts import robot_facts
+from stalm.world.robot_loader import builtin_robots, load_robot, robot_file
 
 
 def _panda_data() -> dict[str, Any]:

@@ -1,0 +1,31 @@
+"""Loading a robot by name or path: a built-in robot file, or any other, checked against its URDF.
+
+Kept apart from the file's model (:mod:`stalm.world.robot_description`), which says what a
+valid robot file is, and from the URDF's side (:mod:`stalm.world.robot_urdf`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from stalm.world.robot_description import ROBOTS_DIR, Robot, read_robot_spec, resolve_urdf
+from stalm.world.robot_urdf import check_against_urdf
+
+
+def builtin_robots() -> tuple[str, ...]:
+    """Names of the robots shipped with stalm, sorted."""
+    return tuple(sorted(path.stem for path in ROBOTS_DIR.glob("*.yaml")))
+
+
+def robot_file(name_or_path: str) -> Path:
+    """The file of a built-in robot's name, else ``name_or_path`` as a path."""
+    if name_or_path in builtin_robots():
+        return ROBOTS_DIR / f"{name_or_path}.yaml"
+    return Path(name_or_path)
+
+
+def load_robot(name_or_path: str) -> Robot:
+    """A built-in robot by name or a robot file by path, validated against its URDF."""
+    path = robot_file(name_or_path)
+    spec = read_robot_spec(path)
+    return check_against_urdf(spec, str(path), resolve_urdf(spec.urdf, path.parent))
