@@ -223,8 +223,9 @@ def collision_files(loaded: UrdfBody) -> list[Path]:
     files: set[Path] = set()
     for link in loaded.links.values():
         for shape in p.getCollisionShapeData(loaded.body, link, physicsClientId=loaded.client):
-            if shape[2] == p.GEOM_MESH and shape[4]:
-                files.add(Path(shape[4].decode()))
+            path = Path(shape[4].decode())
+            if shape[2] == p.GEOM_MESH and path.is_file():  # a URDF cylinder: "unknown_file"
+                files.add(path)
     return sorted(files)
 
 
