@@ -23,6 +23,7 @@ from stalm.cli import (
     llm_commands,
     predicate_commands,
     rerun_commands,
+    robot_commands,
     solve_commands,
     view_commands,
     world_commands,
@@ -59,6 +60,7 @@ for module in (
     app.add_typer(module.commands)
 app.add_typer(bench_commands.bench_app, name="bench")
 app.add_typer(llm_commands.llm_app, name="llm")
+app.add_typer(robot_commands.robot_app, name="robot")
 
 ERROR_CONSOLE = Console(stderr=True)
 
