@@ -1,5 +1,5 @@
-"""A robot no library ships: a 6-joint arm of boxes and cylinders with a two-finger prismatic
-gripper, written by the tests as a URDF and a robot file beside it.
+"""A robot no library ships: a 6-joint arm of boxes, cylinders, a sphere and a capsule with a
+two-finger prismatic gripper, written by the tests as a URDF and a robot file beside it.
 
 Some links' inertial frames are moved and turned away from their URDF frames, and some
 collision shapes are turned too: PyBullet keeps shapes in the inertial frame, so a sphere model
@@ -23,7 +23,7 @@ _LINKS = {
     ),
     "link2": ('<box size="0.08 0.08 0.32"/>', "0 0 0.16", "0 0 0", "0 0.02 0.12", "0.3 0.1 0"),
     "link3": ('<box size="0.06 0.06 0.28"/>', "0 0 0.14", "0 0 0", "0 0 0.1", "0 0 0"),
-    "link4": ('<cylinder radius="0.04" length="0.1"/>', "0 0 0.05", "0 0 0", "0 0 0.05", "0 0.2 0"),
+    "link4": ('<sphere radius="0.05"/>', "0 0 0.05", "0 0 0", "0 0 0.05", "0 0.2 0"),
     "link5": ('<box size="0.05 0.05 0.08"/>', "0 0 0.04", "0 0.3 0", "0 0 0.04", "0 0 0"),
     "link6": (
         '<cylinder radius="0.035" length="0.04"/>',
@@ -71,11 +71,15 @@ def _link(name: str) -> str:
     if shape is None:
         return f'<link name="{name}"/>'
     geometry, xyz, rpy, inertial_xyz, inertial_rpy = shape
+    collisions = f'<collision><origin xyz="{xyz}" rpy="{rpy}"/><geometry>{geometry}</geometry>'
+    collisions += "</collision>"
+    if name == "hand":  # a second element: a camera bump on the back of the hand
+        collisions += '<collision><origin xyz="0.03 0 0.02" rpy="0 1.5708 0"/><geometry>'
+        collisions += '<cylinder radius="0.015" length="0.03"/></geometry></collision>'
     return (
         f'<link name="{name}"><inertial><origin xyz="{inertial_xyz}" rpy="{inertial_rpy}"/>'
         '<mass value="1.0"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>'
-        f'</inertial><collision><origin xyz="{xyz}" rpy="{rpy}"/><geometry>{geometry}'
-        "</geometry></collision></link>"
+        f"</inertial>{collisions}</link>"
     )
 
 

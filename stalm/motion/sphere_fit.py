@@ -43,6 +43,9 @@ GRID = 0.01
 """Candidate centres' spacing (m), coarser on a part too big for :data:`MAX_CANDIDATES`."""
 MAX_CANDIDATES = 3000
 """Grid points at most per convex part."""
+FLAT = 1e-6
+"""How far (m) outside a part a candidate centre may lie and still count as inside it: the
+mid-plane of a part without thickness, whose hull Qhull joggles."""
 
 
 @dataclass(frozen=True)
@@ -113,12 +116,15 @@ def _candidates(part: _Part, delta: float) -> tuple[np.ndarray, np.ndarray]:
     low, high = part.points.min(axis=0), part.points.max(axis=0)
     volume = float(np.prod(np.maximum(high - low, GRID)))
     step = max(GRID, (volume / MAX_CANDIDATES) ** (1.0 / 3.0))
-    axes = [np.arange(a + step / 2, b, step) for a, b in zip(low, high, strict=True)]
+    axes = [
+        np.arange(a + step / 2, b, step) if b - a > step else np.array([(a + b) / 2])
+        for a, b in zip(low, high, strict=True)
+    ]  # a part thinner than a step gets its mid-plane
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
     centres = np.concatenate([grid, part.points.mean(axis=0, keepdims=True)])
     depth = _depth(part, centres)
-    inside = depth >= 0.0
-    return centres[inside], depth[inside] + delta
+    inside = depth >= -FLAT  # a flat part's mid-plane lies on its (joggled) hull
+    return centres[inside], np.maximum(depth[inside], 0.0) + delta
 
 
 def _residuals(points: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
@@ -150,9 +156,11 @@ def _greedy_cover(
         counts -= covers[newly].sum(axis=0)
     picked_centres = [centres[chosen]]
     picked_radii = [radii[chosen]]
-    if uncovered.any():  # a point no candidate reaches (a sliver of a part): its own sphere
-        picked_centres.append(samples[uncovered])
-        picked_radii.append(np.full(int(uncovered.sum()), delta))
+    if uncovered.any():  # points no candidate reaches (a sliver of a part): spheres on them
+        left = samples[uncovered]
+        extra = _greedy_cover(left, left, np.full(len(left), delta), delta)
+        picked_centres.append(extra[0])
+        picked_radii.append(extra[1])
     return np.concatenate(picked_centres), np.concatenate(picked_radii)
 
 

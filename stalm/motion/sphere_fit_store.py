@@ -162,14 +162,15 @@ def robot_spheres(robot: Robot, delta: float = DELTA) -> tuple[RobotSpheres, str
     return spheres, "fitted"
 
 
-def write_shipped_spheres() -> None:
-    """Fit every built-in robot's spheres and write them beside its file."""
+def write_spheres_beside(robot: Robot) -> Path:
+    """Fit ``robot``'s spheres and write them beside its robot file, where
+    :func:`robot_spheres` looks first (how the built-in robots' sets are made)."""
+    spheres = fit_robot_spheres(robot, np.random.default_rng(FIT_SEED))
+    path = beside_file(robot)
+    write_replacing(path, spheres_to_json(spheres) + "\n")
+    return path
+
+
+if __name__ == "__main__":  # pragma: no cover - rewrites the package's own files
     for name in builtin_robots():
-        robot = load_robot(name)
-        spheres = fit_robot_spheres(robot, np.random.default_rng(FIT_SEED))
-        write_replacing(beside_file(robot), spheres_to_json(spheres) + "\n")
-        print(f"{name}: {spheres.total} spheres -> {beside_file(robot)}")
-
-
-if __name__ == "__main__":
-    write_shipped_spheres()
+        print(f"{name}: wrote {write_spheres_beside(load_robot(name))}")

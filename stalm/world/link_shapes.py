@@ -9,8 +9,9 @@ whose hull contains what PyBullet collides with:
   frame, moved here into the URDF frame). A mesh of several hulls gives one point set for them
   all: its hull contains theirs, a looser but still containing shape;
 - a box: its corners;
-- a sphere, cylinder or capsule: a polytope circumscribing it (its faces lie on or outside
-  the curved surface), so that covering the polytope covers the primitive.
+- a sphere: a polytope circumscribing it (its faces touch the sphere or lie outside it), so
+  that covering the polytope covers the sphere. (PyBullet loads a URDF's cylinder and capsule
+  as meshes, hulls of points on their surfaces, which ``getMeshData`` returns.)
 """
 
 from __future__ import annotations
@@ -20,13 +21,12 @@ import math
 import numpy as np
 import pybullet as p
 
+from stalm.errors import StalmError
 from stalm.geometry.transforms import pose_matrix
 from stalm.world.robot_urdf import UrdfBody
 
-CIRCLE_SIDES = 32
-"""Sides of the polygon circumscribing a cylinder's circle."""
 SPHERE_POINTS = 162
-"""Points of the polytope circumscribing a sphere (or a capsule's end)."""
+"""Points of the polytope circumscribing a sphere."""
 
 
 def _fibonacci_sphere(count: int) -> np.ndarray:
@@ -55,19 +55,7 @@ def _primitive_points(kind: int, dimensions: tuple[float, ...]) -> np.ndarray:
         return signs * half
     if kind == p.GEOM_SPHERE:
         return _unit_ball_polytope() * dimensions[0]
-    if kind == p.GEOM_CYLINDER:
-        length, radius = dimensions[0], dimensions[1]
-        angles = np.linspace(0.0, 2.0 * math.pi, CIRCLE_SIDES, endpoint=False)
-        outer = radius / math.cos(math.pi / CIRCLE_SIDES)
-        ring = np.column_stack((outer * np.cos(angles), outer * np.sin(angles)))
-        return np.vstack(
-            [np.column_stack((ring, np.full(CIRCLE_SIDES, z))) for z in (-length / 2, length / 2)]
-        )
-    if kind == p.GEOM_CAPSULE:
-        length, radius = dimensions[0], dimensions[1]
-        ball = _unit_ball_polytope() * radius
-        return np.vstack([ball + np.array([0.0, 0.0, z]) for z in (-length / 2, length / 2)])
-    raise ValueError(f"collision geometry type {kind} has no convex shape here")
+    raise StalmError(f"collision geometry of PyBullet type {kind} is not supported on a robot")
 
 
 def _apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -185,7 +185,10 @@ def finger_gap(loaded: UrdfBody, spec: RobotSpec) -> float:
     """The gap (m) between the two finger links' collision geometry with the fingers open."""
     assert spec.gripper is not None
     gripper = spec.gripper
+    chain = {joint.name for joint in read_chain(loaded, spec.base_link, spec.tool_link)}
     for name, value in gripper.finger_joints.items():
+        if name in chain:
+            raise StalmError(f"gripper.finger_joints: {name!r} is a joint of the arm's chain")
         index = next((i for i, n in _joint_names(loaded).items() if n == name), None)
         if index is None:
             raise StalmError(f"gripper.finger_joints: no joint {name!r} in the URDF")

@@ -49,6 +49,13 @@ def test_the_panda_check_says_its_carry_pose_leaves_the_base(monkeypatch, capsys
     assert "lift 0.1 m/s, 0.5 m/s²" in out
 
 
+def test_the_iiwa_check_says_it_has_no_gripper(monkeypatch, capsys) -> None:
+    assert run_cli(monkeypatch, "robot", "check", "iiwa", "--samples", "200") == 0
+    out = capsys.readouterr().out
+    assert "gripper   none" in out and "chain     lbr_iiwa_link_0 -> lbr_iiwa_link_7: 7" in out
+    assert "  velocity_limits: KUKA's LBR iiwa 14 R820 data sheet" in out
+
+
 def test_a_failing_sphere_check_exits_1(monkeypatch, capsys, tmp_path: Path) -> None:
     robot = load_robot(str(write_test_arm(tmp_path)))
     good = fit_robot_spheres(robot, np.random.default_rng(0))

@@ -13,13 +13,16 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from stalm.motion.sphere_fit import CONTACT_MARGIN, LinkSpheres, fit_link_spheres
+from stalm.errors import StalmError, StalmWarning
+from stalm.motion.sphere_fit import CONTACT_MARGIN, LinkSpheres, check_spheres, fit_link_spheres
 from stalm.motion.sphere_fit_store import (
     RobotSpheres,
     beside_file,
     cache_file,
     check_robot_spheres,
     robot_spheres,
+    spheres_from_json,
+    write_spheres_beside,
 )
 from stalm.world.link_shapes import body_convex_parts
 from stalm.world.robot_description import Robot
@@ -159,3 +162,40 @@ def test_a_changed_urdf_is_fitted_again_and_a_corrupt_cache_is_not_used(tmp_path
 def test_every_builtin_robot_ships_its_spheres() -> None:
     for name in builtin_robots():
         assert beside_file(load_robot(name)).is_file()
+
+
+def test_a_flat_part_is_covered_too() -> None:
+    """A plate modelled without thickness has no volume for a hull: it is joggled."""
+    plate = np.array([[x, y, 0.0] for x in (-0.1, 0.1) for y in (-0.05, 0.05)])
+    model = fit_link_spheres("plate", [plate], np.random.default_rng(0))
+    check = check_spheres({"plate": [plate]}, {"plate": model}, np.random.default_rng(1))
+    assert check.passed and len(model.radii) >= 2
+
+
+def test_spheres_written_beside_a_robot_file_are_used_and_a_bad_one_is_refused(
+    tmp_path: Path,
+) -> None:
+    robot = load_robot(str(write_test_arm(tmp_path)))
+    path = write_spheres_beside(robot)
+    assert path == tmp_path / "boxarm.spheres.json"
+    spheres, origin = robot_spheres(robot)
+    assert origin == "shipped" and spheres.urdf_sha256 == robot.urdf_sha256
+    assert check_robot_spheres(robot, spheres, np.random.default_rng(2), 1000).passed
+    data = json.loads(path.read_text())
+    data["format"] = 0
+    path.write_text(json.dumps(data))
+    with pytest.raises(StalmError, match=r"boxarm\.spheres\.json: not a sphere file of format 1"):
+        spheres_from_json(path)
+    path.write_text(json.dumps({"links": 3}))
+    with pytest.raises(StalmError, match="not a sphere file"):
+        spheres_from_json(path)
+
+
+def test_a_cache_that_cannot_be_written_is_a_warning(tmp_path: Path, monkeypatch) -> None:
+    robot = load_robot(str(write_test_arm(tmp_path)))
+    blocked = tmp_path / "cache-is-a-file"
+    blocked.write_text("")
+    monkeypatch.setenv("STALM_CACHE_DIR", str(blocked))
+    with pytest.warns(StalmWarning, match="cannot cache boxarm's spheres"):
+        _, origin = robot_spheres(robot)
+    assert origin == "fitted"

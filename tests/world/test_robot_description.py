@@ -19,6 +19,7 @@ from stalm.world import robot_limits
 from stalm.world.robot_description import FixedMount, MobileMount
 from stalm.world.robot_facts import robot_facts
 from stalm.world.robot_loader import builtin_robots, load_robot, robot_file
+from tests.robot_files import write_test_arm
 
 
 def _panda_data() -> dict[str, Any]:
@@ -166,3 +167,60 @@ def test_reach_and_the_carry_footprint_are_derived() -> None:
     assert 0.75 < xarm.reach < 0.95
     again = robot_facts(load_robot("xarm6"), np.random.default_rng(0), samples=500)
     assert again == xarm
+
+
+def _edit(path: Path, old: str, new: str) -> None:
+    text = path.read_text(encoding="utf-8")
+    assert old in text
+    path.write_text(text.replace(old, new, 1), encoding="utf-8")
+
+
+def test_what_the_urdf_lacks_the_file_must_give(tmp_path: Path) -> None:
+    robot = write_test_arm(tmp_path)
+    urdf = tmp_path / "boxarm.urdf"
+    _edit(urdf, '<joint name="j1" type="revolute">', '<joint name="j1" type="continuous">')
+    _edit(urdf, '<limit lower="-3.0" upper="3.0" effort', "<limit effort")
+    with pytest.raises(StalmError, match="joint_limits: joint 'j1' has no limits in the URDF"):
+        load_robot(str(robot))
+    data = yaml.safe_load(robot.read_text(encoding="utf-8"))
+    data["joint_limits"] = [[-3.0, 3.0], [-2.0, 2.0], [-2.5, 2.5], [-3.0, 3.0], [-2.0, 2.0]]
+    data["joint_limits"].append([-3.0, 3.0])
+    robot.write_text(yaml.safe_dump(data), encoding="utf-8")
+    assert load_robot(str(robot)).joint_limits[0] == (-3.0, 3.0)
+    _edit(urdf, 'effort="50" velocity="2.0"', 'effort="50" velocity="0"')
+    with pytest.raises(StalmError, match="velocity_limits: joint 'j1' has no velocity limit"):
+        load_robot(str(robot))
+    data["velocity_limits"] = [1.5] * 6
+    robot.write_text(yaml.safe_dump(data), encoding="utf-8")
+    assert load_robot(str(robot)).velocity_limits == (1.5,) * 6
+
+
+def test_a_urdf_pybullet_cannot_read_is_named(tmp_path: Path) -> None:
+    robot = write_test_arm(tmp_path)
+    (tmp_path / "boxarm.urdf").write_text("<robot name='x'><link", encoding="utf-8")
+    with pytest.raises(StalmError, match=r"urdf: PyBullet cannot load the URDF '.*boxarm\.urdf'"):
+        load_robot(str(robot))
+
+
+@pytest.mark.parametrize(
+    ("gripper", "message"),
+    [
+        ({"finger_joints": {"thumb": 0.0}}, "gripper.finger_joints: no joint 'thumb' in the URDF"),
+        ({"finger_joints": {"j6": 0.0}}, "gripper.finger_joints: 'j6' is a joint of the arm's"),
+        (
+            {"finger_joints": {"finger_left": 0.07}},
+            "gripper.finger_joints.finger_left: 0.07 is outside the joint's limits [0.0, 0.04]",
+        ),
+        ({"finger_links": ["left_finger", "palm"]}, "gripper.finger_links[1]: no link 'palm'"),
+    ],
+)
+def test_a_gripper_that_does_not_fit_the_urdf_is_named(
+    tmp_path: Path, gripper: dict[str, Any], message: str
+) -> None:
+    robot = write_test_arm(tmp_path)
+    data = yaml.safe_load(robot.read_text(encoding="utf-8"))
+    data["gripper"] = data["gripper"] | gripper
+    robot.write_text(yaml.safe_dump(data), encoding="utf-8")
+    with pytest.raises(StalmError) as raised:
+        load_robot(str(robot))
+    assert str(raised.value).startswith(f"{robot}: {message}")
