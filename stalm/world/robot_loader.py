@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from stalm.errors import StalmError
 from stalm.world.robot_description import ROBOTS_DIR, Robot, read_robot_spec, resolve_urdf
 from stalm.world.robot_urdf import check_against_urdf
 
@@ -18,10 +19,17 @@ def builtin_robots() -> tuple[str, ...]:
 
 
 def robot_file(name_or_path: str) -> Path:
-    """The file of a built-in robot's name, else ``name_or_path`` as a path."""
-    if name_or_path in builtin_robots():
+    """The file of a built-in robot's name, else ``name_or_path`` as a path; a StalmError
+    listing the built-in robots for a bare name that is neither (a typo, not a missing file)."""
+    names = builtin_robots()
+    if name_or_path in names:
         return ROBOTS_DIR / f"{name_or_path}.yaml"
-    return Path(name_or_path)
+    path = Path(name_or_path)
+    if not path.exists() and path.suffix == "" and len(path.parts) == 1:
+        raise StalmError(
+            f"no robot {name_or_path!r}: give a robot file or one of {', '.join(names)}"
+        )
+    return path
 
 
 def load_robot(name_or_path: str) -> Robot:

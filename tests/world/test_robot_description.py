@@ -145,6 +145,8 @@ def test_a_prismatic_joint_in_the_chain_is_no_arm(tmp_path: Path) -> None:
 
 
 def test_no_robot_file_and_no_robot_data_are_one_line(tmp_path: Path) -> None:
+    with pytest.raises(StalmError, match="no robot 'xarm': give a robot file or one of iiwa, "):
+        load_robot("xarm")
     with pytest.raises(StalmError, match="cannot read robot file"):
         load_robot(str(tmp_path / "none.yaml"))
     with pytest.raises(StalmError, match="not a robot file"):
