@@ -114,7 +114,7 @@ class RobotSpec(_Spec):
     joint_limits: tuple[tuple[Angle, Angle], ...] | None = None
     velocity_limits: tuple[Rate, ...] | None = None
     acceleration_limits: tuple[Rate, ...] = Field(min_length=1, max_length=16)
-    sources: dict[Name, str] = Field(
+    sources: dict[Name, Annotated[str, Field(max_length=400)]] = Field(
         default_factory=dict, description="where given limits and offsets come from"
     )
 

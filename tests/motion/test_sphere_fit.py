@@ -199,3 +199,15 @@ def test_a_cache_that_cannot_be_written_is_a_warning(tmp_path: Path, monkeypatch
     with pytest.warns(StalmWarning, match="cannot cache boxarm's spheres"):
         _, origin = robot_spheres(robot)
     assert origin == "fitted"
+
+
+def test_the_robots_page_states_the_shipped_sphere_counts() -> None:
+    page = (Path(__file__).resolve().parents[2] / "docs" / "robots.md").read_text()
+    rows = {
+        cells[1].strip("` "): cells[7].strip()
+        for cells in (line.split("|") for line in page.splitlines())
+        if len(cells) > 8 and cells[1].strip().startswith("`")
+    }
+    assert rows == {
+        name: str(robot_spheres(load_robot(name))[0].total) for name in builtin_robots()
+    }
