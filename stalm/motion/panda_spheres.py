@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import pybullet as p
 
+from stalm.geometry.sphere_points import fibonacci_directions
 from stalm.motion.panda import LINK_NAMES, panda_chain
 
 MARGIN = 0.005
@@ -66,15 +67,6 @@ class SphereModel:
         return np.array(list(zip(starts, ends, strict=True)), dtype=np.int64)
 
 
-def _fibonacci_directions(count: int) -> np.ndarray:
-    index = np.arange(count) + 0.5
-    polar = np.arccos(1.0 - 2.0 * index / count)
-    azimuth = math.pi * (1.0 + 5.0**0.5) * index
-    return np.stack(
-        [np.cos(azimuth) * np.sin(polar), np.sin(azimuth) * np.sin(polar), np.cos(polar)], axis=1
-    )
-
-
 def _surface_points(client: int, mesh: Path, origin: np.ndarray) -> np.ndarray:
     """Points on the collision surface PyBullet makes of ``mesh`` (the convex hull of its
     vertices), alone in ``client``, in the link frame (``origin``: the URDF collision
@@ -85,7 +77,7 @@ def _surface_points(client: int, mesh: Path, origin: np.ndarray) -> np.ndarray:
     low, high = p.getAABB(body, physicsClientId=client)
     centre = (np.array(low) + np.array(high)) / 2
     reach = float(np.linalg.norm(np.array(high) - np.array(low))) + 0.1
-    starts = centre + reach * _fibonacci_directions(RAYS)
+    starts = centre + reach * fibonacci_directions(RAYS)
     hits: list[tuple[float, float, float]] = []
     for begin in range(0, RAYS, 1000):
         chunk = starts[begin : begin + 1000]

@@ -16,12 +16,11 @@ whose hull contains what PyBullet collides with:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pybullet as p
 
 from stalm.errors import StalmError
+from stalm.geometry.sphere_points import fibonacci_directions
 from stalm.geometry.transforms import pose_matrix
 from stalm.world.robot_urdf import UrdfBody
 
@@ -29,21 +28,12 @@ SPHERE_POINTS = 162
 """Points of the polytope circumscribing a sphere."""
 
 
-def _fibonacci_sphere(count: int) -> np.ndarray:
-    index = np.arange(count) + 0.5
-    polar = np.arccos(1.0 - 2.0 * index / count)
-    azimuth = math.pi * (1.0 + 5.0**0.5) * index
-    return np.column_stack(
-        (np.cos(azimuth) * np.sin(polar), np.sin(azimuth) * np.sin(polar), np.cos(polar))
-    )
-
-
 def _unit_ball_polytope() -> np.ndarray:
     """Points whose hull contains the unit ball: Fibonacci points scaled so that the hull's
     nearest face to the centre is 1 away."""
     from scipy.spatial import ConvexHull
 
-    points = _fibonacci_sphere(SPHERE_POINTS)
+    points = fibonacci_directions(SPHERE_POINTS)
     inradius = float(-ConvexHull(points).equations[:, 3].max())
     return points / inradius
 
