@@ -48,7 +48,8 @@ def _primitive_points(kind: int, dimensions: tuple[float, ...]) -> np.ndarray:
     raise StalmError(f"collision geometry of PyBullet type {kind} is not supported on a robot")
 
 
-def _apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
+def transformed(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``points`` (n x 3) moved by the 4x4 transform ``matrix``."""
     return points @ matrix[:3, :3].T + matrix[:3, 3]
 
 
@@ -71,9 +72,9 @@ def link_convex_parts(loaded: UrdfBody, link: int) -> list[np.ndarray]:
             points = np.asarray(mesh[1], dtype=float).reshape(-1, 3)
         else:
             local = pose_matrix((shape[5], shape[6]))
-            points = _apply(local, _primitive_points(kind, tuple(shape[3])))
+            points = transformed(local, _primitive_points(kind, tuple(shape[3])))
         if len(points):
-            parts.append(_apply(inertial, points))
+            parts.append(transformed(inertial, points))
     return parts
 
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stalm.world.link_shapes import body_convex_parts
+from stalm.world.link_shapes import body_convex_parts, transformed
 from stalm.world.robot_description import MobileMount, Robot
 from stalm.world.robot_urdf import finger_gap, tool_offset_matrix, urdf_body
 
@@ -63,7 +63,7 @@ def robot_facts(robot: Robot, rng: np.random.Generator, samples: int = REACH_SAM
             for name, parts in body_convex_parts(loaded).items():
                 frame = base @ loaded.link_frame(loaded.links[name])
                 for points in parts:
-                    xy = (points @ frame[:3, :3].T + frame[:3, 3])[:, :2]
+                    xy = transformed(frame, points)[:, :2]
                     xy[:, 0] += mount.arm_mount_forward
                     farthest = max(farthest, float(np.linalg.norm(xy, axis=1).max()))
             radius = farthest
