@@ -193,7 +193,10 @@ def bench_ik(
     ] = 200,
     seed: Annotated[int, typer.Option(help="Seed of the targets and the IK restarts.")] = 0,
     robot: Annotated[
-        str, typer.Option(help="The arm: panda (on its mobile base, per problem), xarm6, iiwa.")
+        str,
+        typer.Option(
+            help="The arm: panda (on its mobile base, per problem), xarm6, iiwa, or a robot file."
+        ),
     ] = "panda",
     attempts: Annotated[
         int, typer.Option(help="Seeds per target for an arm other than the Panda (at least 1).")
@@ -203,10 +206,10 @@ def bench_ik(
     ] = None,
 ) -> None:
     """The compiled IK beside PyBullet's own on the same targets: time, reached, missed."""
-    from stalm.motion.known_arms import known_arm
+    from stalm.world.robot_loader import load_robot
 
     _check(seed, json_out, targets=targets, attempts=attempts)
-    known_arm(robot)
+    load_robot(robot)  # a StalmError naming an unknown robot or a bad robot file
     if robot != "panda":
         if problems:
             raise StalmError(

@@ -10,7 +10,8 @@ with joint resets and a forward-kinematics check, what stalm ran before). Wall t
 process (``time.perf_counter``); both in one run on one machine. ``missed`` counts targets
 the reference reached and the compiled solver did not.
 
-Any other arm (``--robot``: :data:`stalm.motion.known_arms.KNOWN_ARMS`) is benchmarked alone,
+Any other arm (``--robot``: a built-in robot or a robot file, :mod:`stalm.world.robot_loader`) is
+benchmarked alone,
 fixed at the world origin in its own PyBullet client: targets are the tool frames of
 configurations drawn uniformly inside its limits, and each is solved from the same seeds
 (drawn uniformly too, tried in order until one reaches it) by the compiled
@@ -29,9 +30,10 @@ from stalm.geometry.transforms import Pose3, quat_from_matrix
 from stalm.motion import ik, panda
 from stalm.motion.arm_kinematics import ArmKinematics
 from stalm.motion.ik_reference import PyBulletArm, pybullet_refine
-from stalm.motion.known_arms import known_chain
+from stalm.motion.robot_chain import robot_chain
 from stalm.world import robot as robot_model
 from stalm.world.problem import load_problem
+from stalm.world.robot_loader import load_robot
 from stalm.world.scene import Sim
 
 Target = tuple[tuple[float, float, float], Pose3, float]
@@ -112,7 +114,8 @@ def _missed(reached: list[bool], reference_reached: list[bool]) -> int:
 def bench_arm(robot: str, count: int = 200, seed: int = 0, attempts: int = 20) -> dict[str, object]:
     """One arm's row (see the module): seconds per target and targets reached by both
     solvers, each trying the same ``attempts`` seeds per target in order."""
-    chain = known_chain(robot)
+    loaded = load_robot(robot)
+    chain = robot_chain(loaded)
     kinematics = ArmKinematics(chain)
     rng = np.random.default_rng(seed)
     reference = PyBulletArm(chain)
@@ -136,7 +139,7 @@ def bench_arm(robot: str, count: int = 200, seed: int = 0, attempts: int = 20) -
     finally:
         reference.close()
     return {
-        "robot": robot,
+        "robot": loaded.name,
         "joints": chain.dof,
         "targets": count,
         "seeds": attempts,

@@ -27,7 +27,7 @@ def no_arm_run(monkeypatch: pytest.MonkeyPatch) -> None:
 @pytest.mark.parametrize(
     ("args", "named"),
     [
-        (["--robot", "ur5"], "unknown robot 'ur5'; known: panda, xarm6, iiwa"),
+        (["--robot", "ur5"], "no robot 'ur5': give a robot file or one of iiwa, panda, xarm6"),
         (["--robot", "xarm6", "P2"], "--robot xarm6 is benchmarked fixed at the origin"),
         (["--robot", "iiwa", "--attempts", "0"], "--attempts must be at least 1, got 0"),
     ],

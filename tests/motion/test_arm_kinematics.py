@@ -15,9 +15,10 @@ from stalm.errors import StalmError
 from stalm.motion import arm_kinematics, dls_kernels, ik, panda
 from stalm.motion.arm_kinematics import ArmKinematics
 from stalm.motion.ik_reference import PyBulletArm
-from stalm.motion.known_arms import KNOWN_ARMS, known_arm, known_chain
+from stalm.motion.robot_chain import robot_chain
 from stalm.motion.urdf_chain import UrdfChain, read_chain
 from stalm.world import robot as robot_model
+from stalm.world.robot_loader import builtin_robots, load_robot
 from tests.motion.test_kernels_interpreted import interpreted
 
 STATE_TOLERANCE = 2e-6
@@ -90,8 +91,13 @@ def test_arm(tmp_path_factory: pytest.TempPathFactory) -> UrdfChain:
     )
 
 
+def known_chain(name: str) -> UrdfChain:
+    """A built-in robot's chain, as its robot file describes it."""
+    return robot_chain(load_robot(name))
+
+
 def _chains(test_arm: UrdfChain) -> Iterator[tuple[str, UrdfChain]]:
-    for name in KNOWN_ARMS:
+    for name in builtin_robots():
         yield name, known_chain(name)
     yield "test_arm", test_arm
 
@@ -105,7 +111,7 @@ def test_the_chains_read_are_the_arms() -> None:
     xarm = known_chain("xarm6")
     assert xarm.dof == 6 and xarm.root_link == "world"
     assert np.allclose(xarm.lows[:3], (-2 * math.pi, -2.059, -3.927))
-    assert np.allclose(xarm.tool[:3, 3], (0.0, 0.0, 0.14))  # the fixed gripper joint is at 0
+    assert np.allclose(xarm.tool[:3, 3], (0.0, 0.0, 0.155))  # the fixed gripper joint is at 0
     assert known_chain("iiwa").dof == 7
 
 
@@ -371,5 +377,5 @@ def test_a_urdf_that_is_not_a_serial_arm_is_refused_naming_the_joint(
 def test_a_missing_file_and_an_unknown_robot_are_refused(tmp_path: Path) -> None:
     with pytest.raises(StalmError, match="cannot read the chain"):
         read_chain(tmp_path / "none.urdf", "a", "b")
-    with pytest.raises(StalmError, match="unknown robot 'ur5'; known: panda, xarm6, iiwa"):
-        known_arm("ur5")
+    with pytest.raises(StalmError, match="ur5"):
+        load_robot("ur5")
