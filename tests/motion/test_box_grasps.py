@@ -26,7 +26,7 @@ from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.samples import PredicateSettings
 from stalm.world import robot as robot_model
 from stalm.world.problem import Problem, load_problem
-from stalm.world.spec import ObjectSpec
+from stalm.world.spec import ObjectSpec, ProblemSpec
 from stalm.world.state import ObjectPose
 
 BOX1 = Path(__file__).resolve().parents[2] / "stalm" / "problems" / "box1.yaml"
@@ -181,3 +181,34 @@ def test_both_engines_give_the_same_predicates_on_boxes() -> None:
     names = {str(literal) for literal in batched.literals}
     assert "PickOccludedBy(cereal, crackers)" in names
     assert "PlaceOccludedBy(can, on, ledge, crate)" in names
+
+
+def test_pddlstreams_grasp_of_a_box_fits_and_a_too_wide_one_has_none() -> None:
+    from stalm.planners.pddlstream.streams import StreamGeometry
+
+    problem = load_problem(BOX1)
+    data = problem.spec.model_dump(mode="json")
+    data["objects"][2]["size"] = [0.3, 0.09, 0.14]  # the crate, now too wide on every side
+    wide = Problem(ProblemSpec.model_validate(data), "wide")
+    for case, expect_grasp in ((problem, True), (wide, False)):
+        domain = Domain.create(case)
+        try:
+            geometry = StreamGeometry(domain)
+            rng = np.random.default_rng(5)
+            value = geometry.sample_grasp("crate", rng)
+            if not expect_grasp:
+                assert value is None
+                failure = domain.samplers.pick(case.initial_state, Pick("crate"), rng)
+                assert isinstance(failure, Infeasibility)
+                assert failure.detail.startswith("'crate': it is 0.09 m across at its narrowest")
+                continue
+            assert value is not None
+            crate = case.spec.object("crate")
+            assert crate.size is not None
+            closing = matrix_from_quat(value.grasp.orientation)[1, :]
+            width = sum(s * abs(float(a)) for s, a in zip(crate.size, closing, strict=True))
+            assert width <= GAP + 1e-6
+            assert value.point == pytest.approx((-0.15 + robot_model.GRIPPER_PALM_DEPTH, 0, 0.07))
+            assert geometry.sample_grasp("can", rng) is not None  # round: as before
+        finally:
+            domain.close()
