@@ -10,10 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stalm.domain.actions import Pick
+from stalm.domain.actions import Pick, Place
 from stalm.domain.mdp import Domain
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import PickParams
+from stalm.domain.samplers import SamplerSettings
 from stalm.geometry.transforms import gripper_rotation, matrix_from_quat
 from stalm.motion.grasps import (
     PITCH_RANGE,
@@ -212,3 +213,37 @@ def test_pddlstreams_grasp_of_a_box_fits_and_a_too_wide_one_has_none() -> None:
             assert geometry.sample_grasp("can", rng) is not None  # round: as before
         finally:
             domain.close()
+
+
+def test_a_low_box_is_picked_from_above_and_put_down() -> None:
+    problem = load_problem(BOX1)
+    data = problem.spec.model_dump(mode="json")
+    data["objects"][0].update(size=[0.06, 0.16, 0.04], at=[-0.12, 0.0])  # a low packet
+    low = Problem(ProblemSpec.model_validate(data), "low")
+    domain = Domain.create(low)
+    try:
+        rng = np.random.default_rng(0)
+        drawn, picked = domain.sample_and_step(low.initial_state, Pick("crackers"), rng)
+        assert picked.feasible and drawn is not None
+        assert isinstance(drawn.params, PickParams)
+        assert drawn.params.pitch > math.pi / 4  # from above
+        _, placed = domain.sample_and_step(picked.state, Place("crackers", "on", "table"), rng)
+        assert placed.feasible, placed.failure
+    finally:
+        domain.close()
+
+
+def test_both_engines_draw_the_same_sampler_outcomes_on_boxes() -> None:
+    """ψ with either engine on BOX1: the same κ (or failure and blockers) for every legal
+    action of its first states, from the same seed (a held box is tested as its box)."""
+    from tests.test_behaviour_unchanged import draw_record
+
+    rows = []
+    for engine in ("pybullet", "batched"):
+        domain = Domain.create(load_problem(BOX1), sampler_settings=SamplerSettings(engine=engine))
+        try:
+            rows.append(draw_record(domain))
+        finally:
+            domain.close()
+    assert rows[0] == rows[1]
+    assert any(row["action"] == "pick(crate)" and row["feasible"] for row in rows[0])
