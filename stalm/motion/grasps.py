@@ -41,7 +41,8 @@ SIDE_GRASP_HEIGHT_CAP = 0.09
 tall bottle is held low, where the arm reaches it from a counter's standing pose."""
 SIDE_GRASP_MIN_HEIGHT = 0.08
 """A box lower than this (m) is taken from above: a side grasp at half its height would put
-the hand (about 6 cm thick across its fingers' plane) into the surface it rests on."""
+the palm, which sits outside the box's near face and reaches 3.6 cm either side of the grasp
+frame across the fingers' plane (measured in PyBullet), into the surface it rests on."""
 
 
 @dataclass(frozen=True)
