@@ -105,7 +105,9 @@ def bench_world(
 def bench_predicates(
     problems: Annotated[
         list[str] | None,
-        typer.Argument(help="Problems (default P1..P6 and the 35-object benchmark layout)."),
+        typer.Argument(
+            help="Problems (default P1..P6, BOX1's boxes and the 35-object benchmark layout)."
+        ),
     ] = None,
     seed: Annotated[int, typer.Option(help="Seed for the actions taken.")] = 0,
     json_out: Annotated[

@@ -26,12 +26,13 @@ from stalm.motion.grasps import (
     PITCH_RANGE,
     YAW_RANGE,
     draw_placement,
+    grasp_window,
     gripper_target,
-    nearest_grasp_point,
     sample_grasp_angles,
 )
 from stalm.motion.manipulation import ArmMotion, Manipulator, handle_target, placing_hand
 from stalm.world import robot as robot_model
+from stalm.world.grip_widths import too_wide
 from stalm.world.relations import direction_between, supporting_region
 from stalm.world.scene import Sim
 from stalm.world.spec import RegionSpec
@@ -137,13 +138,19 @@ class Samplers:
         path = self.base_path(state, stand)
         if isinstance(path, Infeasibility):
             return path
-        point = nearest_grasp_point(obj, pose, stand)
+        window = grasp_window(obj, pose, stand, self.settings.pitch_range, self.settings.yaw_range)
+        if window is None:
+            wide = too_wide(obj, robot_model.GRIPPER_GAP)
+            return Infeasibility(
+                "no_ik",
+                f"'{action.obj}': {wide}"
+                if wide is not None
+                else f"no grasp of '{action.obj}' fits from {region_name}'s standing pose",
+            )
         failures = Failures()
         for _ in range(self.settings.pick_tries):
-            pitch, yaw = sample_grasp_angles(
-                rng, self.settings.pitch_range, self.settings.yaw_range
-            )
-            target = gripper_target(point, stand[2], pitch, yaw)
+            pitch, yaw = sample_grasp_angles(rng, window.pitch_range, window.yaw_range)
+            target = gripper_target(window.point, stand[2], pitch, yaw)
             self.sim.set_state(state)
             self.sim.set_base_only(stand)
             reached = False

@@ -30,12 +30,13 @@ from stalm.predicates.samples import PredicateSettings
 from stalm.world.problem import load_problem, shipped_problems_dir
 from stalm.world.state import State
 
-BENCH_LAYOUTS = ("layouts/clutter35.yaml",)
-"""Layouts beyond P1-P6 in the default list, under the package's problems folder."""
+BENCH_LAYOUTS = ("box1.yaml", "layouts/clutter35.yaml")
+"""Problems beyond P1-P6 in the default list, under the package's problems folder: the scene
+of boxes and the 35-object layout."""
 
 
 def default_problems() -> list[str]:
-    """P1..P6 and the benchmark layouts (by path)."""
+    """P1..P6, the box scene and the benchmark layout (by path)."""
     return [
         *("P1", "P2", "P3", "P4", "P5", "P6"),
         *(str(shipped_problems_dir() / layout) for layout in BENCH_LAYOUTS),

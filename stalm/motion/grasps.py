@@ -7,6 +7,7 @@ Shared by the operators' samplers (``stalm.domain``) and the occlusion predicate
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,6 +19,8 @@ from stalm.geometry.transforms import (
     se2_to_world,
     wrap_angle,
 )
+from stalm.world import robot as robot_model
+from stalm.world.grip_widths import too_wide
 from stalm.world.spec import GRILL_HANDLE_REACH, ObjectSpec, RegionSpec
 from stalm.world.state import ObjectPose
 
@@ -33,6 +36,128 @@ PLACE_CLEARANCE = 0.12
 """A held object is lowered onto its placement from this height above it (m)."""
 
 
+SIDE_GRASP_HEIGHT_CAP = 0.09
+"""A side grasp takes an upright object at half its height, but no higher than this (m): a
+tall bottle is held low, where the arm reaches it from a counter's standing pose."""
+SIDE_GRASP_MIN_HEIGHT = 0.08
+"""A box lower than this (m) is taken from above: a side grasp at half its height would put
+the palm, which sits outside the box's near face and reaches 3.6 cm either side of the grasp
+frame across the fingers' plane (measured in PyBullet), into the surface it rests on."""
+
+
+@dataclass(frozen=True)
+class GraspWindow:
+    """Where a gripper takes an object and the angles it may take it at: the grasp point in
+    the object's frame and in the world, and PICK's pitch and yaw (relative to the standing
+    pose) ranges, inside which every draw is a grasp whose closing width fits the gripper."""
+
+    local: tuple[float, float, float]
+    point: tuple[float, float, float]
+    pitch_range: tuple[float, float]
+    yaw_range: tuple[float, float]
+
+
+def grasp_window(
+    obj: ObjectSpec,
+    pose: ObjectPose,
+    stand: tuple[float, float, float],
+    pitch_range: tuple[float, float],
+    yaw_range: tuple[float, float],
+    gap: float = robot_model.GRIPPER_GAP,
+    palm_depth: float = robot_model.GRIPPER_PALM_DEPTH,
+) -> GraspWindow | None:
+    """The grasp of ``obj`` resting at ``pose`` that PICK samples from ``stand``; None if no
+    grasp fits from there: the object is wider than ``gap`` across every closing direction
+    (:func:`~stalm.world.grip_widths.too_wide`), or it is a box turned so that no pair of
+    faces narrow enough faces the robot within ``yaw_range``.
+
+    An upright cylinder (and a plate's rim, a grill's handle) fits at every yaw: its grasp is
+    its point nearest the stand with the ranges as given. A box is taken across a pair of
+    opposite faces: from the side (pitch in ``pitch_range``) if it is tall enough, else from
+    above (pitch the same span below vertical). Turning the gripper by ``t`` from square to
+    the faces makes the box ``w |cos t| + d |sin t|`` wide across the fingers (width ``w``
+    between the faces, depth ``d``), so the yaw range is cut to where that fits ``gap``; of
+    the face pairs and approach sides, the widest remaining range is taken (ties: the one most
+    straight ahead)."""
+    if too_wide(obj, gap) is not None:
+        return None
+    if not yaw_limited(obj):
+        point = nearest_grasp_point(obj, pose, stand)
+        local = _nearest_local(obj, pose, stand)
+        return GraspWindow(local, point, pitch_range, yaw_range)
+    assert obj.size is not None
+    sx, sy, sz = obj.size
+    side = sz >= SIDE_GRASP_MIN_HEIGHT
+    span = pitch_range[1] - pitch_range[0]
+    pitches = pitch_range if side else (math.pi / 2 - span, math.pi / 2)
+    best: tuple[float, float, tuple[float, float], tuple[float, float, float]] | None = None
+    for closing, width, depth in ((0, sx, sy), (1, sy, sx)):
+        if width > gap:
+            continue
+        turn = _fitting_turn(width, depth, gap)
+        for sense in (1.0, -1.0):
+            # the approach runs along the other horizontal axis, into the face on its far side
+            approach = (math.pi / 2 if closing == 0 else 0.0) + (0.0 if sense > 0 else math.pi)
+            ahead = wrap_angle(pose.yaw + approach - stand[2])
+            for centre in (ahead - 2 * math.pi, ahead, ahead + 2 * math.pi):
+                low, high = max(yaw_range[0], centre - turn), min(yaw_range[1], centre + turn)
+                if low > high:
+                    continue
+                key = (high - low, -abs((low + high) / 2))
+                if best is None or key > (best[0], best[1]):
+                    if side:
+                        inset = -depth / 2 + min(depth / 2, palm_depth)
+                        z = min(sz / 2, SIDE_GRASP_HEIGHT_CAP)
+                    else:
+                        inset, z = 0.0, max(sz / 2, sz - palm_depth)
+                    local = (0.0, sense * inset, z) if closing == 0 else (sense * inset, 0.0, z)
+                    best = (*key, (low, high), local)
+    if best is None:
+        return None
+    _, _, yaws, local = best
+    wx, wy = se2_to_world((pose.x, pose.y, pose.yaw), local[0], local[1])
+    return GraspWindow(local, (wx, wy, pose.z + local[2]), pitches, yaws)
+
+
+def yaw_limited(obj: ObjectSpec) -> bool:
+    """Does the gripper's yaw around ``obj`` decide whether it fits (a box: its faces differ
+    in width, and turning widens it across the fingers), unlike a round object's?"""
+    return obj.shape == "box"
+
+
+def _fitting_turn(width: float, depth: float, gap: float) -> float:
+    """The largest turn ``t`` in [0, pi/2] from square such that a ``width`` x ``depth``
+    rectangle spans at most ``gap`` across the closing direction at every turn up to ``t``."""
+    reach = math.hypot(width, depth)
+    if reach <= gap:
+        return math.pi / 2
+    return math.atan2(depth, width) - math.acos(gap / reach)
+
+
+def closing_width(obj: ObjectSpec, object_yaw: float, approach_yaw: float) -> float:
+    """How wide a box spans across the fingers of a gripper approaching along
+    ``approach_yaw`` (its closing axis level and square to that yaw) when the box stands
+    with ``object_yaw``."""
+    assert obj.size is not None
+    turn = approach_yaw + math.pi / 2 - object_yaw  # the closing axis in the box's frame
+    return obj.size[0] * abs(math.cos(turn)) + obj.size[1] * abs(math.sin(turn))
+
+
+def _nearest_local(
+    obj: ObjectSpec, pose: ObjectPose, base: tuple[float, float, float]
+) -> tuple[float, float, float]:
+    """The grasp point :func:`nearest_grasp_point` picks, in the object's frame."""
+    best: tuple[float, float, float] | None = None
+    best_distance = math.inf
+    for gx, gy, gz in grasp_points(obj):
+        wx, wy = se2_to_world((pose.x, pose.y, pose.yaw), gx, gy)
+        distance = math.hypot(wx - base[0], wy - base[1])
+        if distance < best_distance - 1e-9:
+            best, best_distance = (gx, gy, gz), distance
+    assert best is not None
+    return best
+
+
 def grasp_points(obj: ObjectSpec) -> list[tuple[float, float, float]]:
     """Candidate grasp points in the object's frame (origin at its bottom centre)."""
     if obj.shape == "grill":
@@ -45,7 +170,7 @@ def grasp_points(obj: ObjectSpec) -> list[tuple[float, float, float]]:
         # a plate is taken at its rim from above: the grasp point sits just over the rim
         r, z = obj.radius * 0.85, obj.height + 0.012
         return [(r, 0.0, z), (-r, 0.0, z), (0.0, r, z), (0.0, -r, z)]
-    return [(0.0, 0.0, min(obj.height / 2, 0.09))]
+    return [(0.0, 0.0, min(obj.height / 2, SIDE_GRASP_HEIGHT_CAP))]
 
 
 def nearest_grasp_point(

@@ -3,7 +3,7 @@
 :class:`ScenePrimitives` turns a simulator's bodies into the rows
 :mod:`stalm.motion.collision_primitives` reads: the static scene (walls, counters, tables) once,
 the doors and objects as the simulator has them at each question, and the held object in the
-gripper's frame (a can as its box and its spheres, a grill as its boxes). Every body has a
+gripper's frame (a can as its box and its spheres, a grill or a box as its boxes). Every body has a
 column, the index the candidate test marks.
 """
 
@@ -22,6 +22,10 @@ from stalm.world import robot as robot_model
 from stalm.world.scene import Sim
 from stalm.world.spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
 from stalm.world.state import Grasp
+
+BOXED_SHAPES = ("grill", "box")
+"""Shapes whose collision shapes are oriented boxes: the batched engine tests them exactly as
+PyBullet has them (their rows are the boxes themselves, not a cover), and a held one as boxes."""
 
 
 def box_row(
@@ -42,7 +46,7 @@ def yaw_rotation(yaw: float) -> np.ndarray:
 
 def object_boxes(obj: ObjectSpec) -> list[tuple[tuple[float, float, float], tuple[float, ...]]]:
     """An object's collision boxes in its own frame (origin at its bottom centre): (centre,
-    half extents) each; a cylinder's is its bounding box."""
+    half extents) each; a box's is itself, a cylinder's is its bounding box."""
     if obj.shape == "grill":
         assert obj.size is not None
         sx, sy, sz = obj.size
@@ -53,6 +57,9 @@ def object_boxes(obj: ObjectSpec) -> list[tuple[tuple[float, float, float], tupl
             ((0.0, side, obj.handle_z), handle),
             ((0.0, -side, obj.handle_z), handle),
         ]
+    if obj.shape == "box":
+        half = obj.half_extents
+        return [((0.0, 0.0, half[2]), half)]
     assert obj.radius is not None and obj.height is not None
     return [((0.0, 0.0, obj.height / 2), (obj.radius, obj.radius, obj.height / 2))]
 
@@ -150,7 +157,7 @@ class ScenePrimitives:
                 continue
             column = -1 if body in skipped else self.column_of[body]
             position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=client)
-            if obj.shape == "grill":
+            if obj.shape in BOXED_SHAPES:
                 rotation = yaw_rotation(quat_yaw(orientation))
                 for centre, half in object_boxes(obj):
                     world = np.asarray(position) + rotation @ np.asarray(centre)
@@ -177,7 +184,7 @@ class ScenePrimitives:
         for centre, half in object_boxes(obj):
             local = np.asarray(held.position) + grasp_rotation @ np.asarray(centre)
             rows.append(box_row(local, half, grasp_rotation, 0))
-        if obj.shape == "grill":
+        if obj.shape in BOXED_SHAPES:
             box_groups = np.full(len(rows), -1, dtype=np.int64)
             return spheres.link, spheres.centre, spheres.radius, groups, np.array(rows), box_groups
         centres, radius = cylinder_spheres(obj)

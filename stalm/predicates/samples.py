@@ -30,8 +30,8 @@ from stalm.motion.grasps import (
     PITCH_RANGE,
     YAW_RANGE,
     draw_placement,
+    grasp_window,
     gripper_target,
-    nearest_grasp_point,
     sample_grasp_angles,
 )
 from stalm.motion.manipulation import Manipulator, placing_hand, route_segment
@@ -207,18 +207,19 @@ class MotionSamples:
         region = self.spec.region(region_name)
         stand = region.base_pose
         spec = self.spec.object(obj)
-        point = nearest_grasp_point(spec, pose, stand)
+        window = grasp_window(spec, pose, stand, self.pitch_range, self.yaw_range)
         rng = np.random.default_rng(stable_seed(self.settings.seed, "pick", obj))
         motions: list[SweptMotion] = []
         grasp: Grasp | None = None
         object_pose = ((pose.x, pose.y, pose.z), yaw_quat(pose.yaw))
         draws = 0
-        while draws < self.settings.pick_samples or (
-            not motions and draws < self.settings.pick_draws_until_one
+        while window is not None and (
+            draws < self.settings.pick_samples
+            or (not motions and draws < self.settings.pick_draws_until_one)
         ):
             draws += 1
-            pitch, yaw = sample_grasp_angles(rng, self.pitch_range, self.yaw_range)
-            target = gripper_target(point, stand[2], pitch, yaw)
+            pitch, yaw = sample_grasp_angles(rng, window.pitch_range, window.yaw_range)
+            target = gripper_target(window.point, stand[2], pitch, yaw)
             this_grasp = Grasp.make(obj, *compose(invert(target), object_pose))
             for arm in self.hands.picks(stand, target, rng, self.settings.ik_attempts):
                 self.sim.place_object(obj, pose)

@@ -1,9 +1,10 @@
 """Objects that no action can ever move: a problem-file check beyond the scene's collisions.
 
-An object whose every sampled pick is statically infeasible (no IK, or a motion through the
-static scene), or which can be picked but put down on no region, never moves whatever the
-planner does. ``stalm problems --file`` warns about each one (a goal that needs it moved
-cannot be reached), sampling as the predicates do, with their extra draws before giving up
+An object wider than the gripper opens across every closing direction, one whose every
+sampled pick is statically infeasible (no IK, or a motion through the static scene), or one
+which can be picked but put down on no region, never moves whatever the planner does.
+``stalm problems --file`` warns about each one (a goal that needs it moved cannot be
+reached), sampling as the predicates do, with their extra draws before giving up
 (:class:`~stalm.predicates.samples.PredicateSettings`). ``stalm solve`` asks only about the
 objects its goal needs moved (:func:`goal_unreachable`) and, when a goal atom can then never
 come true (:func:`unreachable_goal`), says so up front and names it as the run's termination.
@@ -16,6 +17,8 @@ from collections.abc import Callable, Collection, Mapping
 from stalm.motion.base_motion import BasePlanner
 from stalm.motion.manipulation import PARKED
 from stalm.predicates.samples import MotionSamples, PredicateSettings
+from stalm.world import robot as robot_model
+from stalm.world.grip_widths import too_wide
 from stalm.world.problem import Problem
 from stalm.world.relations import at_position
 from stalm.world.scene import Sim
@@ -43,6 +46,10 @@ def stuck_objects(
         if progress is not None:
             progress(done, len(poses))
         sim.set_state(state)
+        wide = too_wide(problem.spec.object(name), robot_model.GRIPPER_GAP)
+        if wide is not None:
+            stuck[name] = wide
+            continue
         record = samples.pick_record(name, pose)
         if record.grasp is None:
             stuck[name] = "no sampled pick reaches it without touching the static scene"

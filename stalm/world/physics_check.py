@@ -51,8 +51,8 @@ TOLERANCE_M = 0.01
 """An object whose frame moved further than this from the plan's pose fails the check (m)."""
 TOLERANCE_DEG = 5.0
 """An object tilted further than this from upright fails the check (degrees)."""
-MASS_KG = {"cylinder": 0.3, "disc": 0.2, "grill": 4.0}
-"""Mass per shape: a full drinks can or bottle, a plate, a small table grill. Resting
+MASS_KG = {"cylinder": 0.3, "disc": 0.2, "grill": 4.0, "box": 0.5}
+"""Mass per shape: a full drinks can or bottle, a plate, a small table grill, a packet. Resting
 stability depends on shape and centre of mass, not on mass, so one figure per shape does."""
 
 
@@ -228,8 +228,7 @@ def centre_of_mass(obj: ObjectSpec) -> tuple[float, float, float]:
     """The centroid of ``obj``'s shape in its frame (origin at the bottom face's centre),
     for a uniform density (a grill's handles pull it a little toward their height)."""
     if obj.shape != "grill":
-        assert obj.height is not None
-        return (0.0, 0.0, obj.height / 2)
+        return (0.0, 0.0, obj.half_extents[2])
     assert obj.size is not None
     sx, sy, sz = obj.size
     body = sx * sy * sz

@@ -35,6 +35,13 @@ ARM_JOINT_LIMITS = (
 )
 FINGER_OPENING = 0.04
 """Each finger's opening (m): the gripper stays fully open; grasping is kinematic."""
+GRIPPER_GAP = 0.0778
+"""The gap between the fingers' collision shapes with the gripper fully open (m, measured in
+PyBullet): the widest an object may be across where the fingers close on it. Every grasp is
+derived from this and :data:`GRIPPER_PALM_DEPTH`, so another gripper changes these two."""
+GRIPPER_PALM_DEPTH = 0.035
+"""How far the palm sits behind the grasp frame along the approach (m, measured in PyBullet):
+a grasp frame deeper than this inside an object would put the palm into it."""
 GRASP_FRAME = "panda_grasptarget"
 """The URDF link a grasp is expressed in (the point between the fingertips)."""
 MOUNT_DESCRIPTION = "holonomic disc base (x, y, yaw) with a vertical lift carrying the arm"

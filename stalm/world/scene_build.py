@@ -187,6 +187,19 @@ def object_shapes(client: int, obj: ObjectSpec) -> tuple[int, int]:
             rgbaColors=[color, [0.15, 0.15, 0.15, 1], [0.15, 0.15, 0.15, 1]],
             physicsClientId=c,
         )
+    elif obj.shape == "box":
+        half = list(obj.half_extents)
+        centre = [0.0, 0.0, half[2]]
+        col = p.createCollisionShape(
+            p.GEOM_BOX, halfExtents=half, collisionFramePosition=centre, physicsClientId=c
+        )
+        vis = p.createVisualShape(
+            p.GEOM_BOX,
+            halfExtents=half,
+            rgbaColor=color,
+            visualFramePosition=centre,
+            physicsClientId=c,
+        )
     else:
         assert obj.radius is not None and obj.height is not None
         col = p.createCollisionShape(

@@ -116,7 +116,7 @@ class DoorSpec(_Spec):
         return self.handle_offset if self.handle_offset is not None else self.width - 0.1
 
 
-ShapeName = Literal["cylinder", "disc", "grill"]
+ShapeName = Literal["cylinder", "disc", "grill", "box"]
 
 
 class ObjectSpec(_Spec):
@@ -148,6 +148,11 @@ class ObjectSpec(_Spec):
                 raise ValueError(f"a {self.shape} needs 'radius' and 'height'")
             if self.size is not None:
                 raise ValueError(f"a {self.shape} takes 'radius' and 'height', not 'size'")
+        elif self.shape == "box":
+            if self.size is None:
+                raise ValueError("a box needs 'size' (x, y, z): its full extents in metres")
+            if self.radius is not None or self.height is not None:
+                raise ValueError("a box takes 'size' (x, y, z), not 'radius' or 'height'")
         else:
             if self.size is None:
                 raise ValueError("a grill needs 'size' (x, y, z) of its body")
@@ -190,6 +195,9 @@ class ObjectSpec(_Spec):
             assert self.size is not None
             sx, sy, sz = self.size
             return (sx / 2, sy / 2 + GRILL_HANDLE_REACH, sz / 2)
+        if self.shape == "box":
+            assert self.size is not None
+            return (self.size[0] / 2, self.size[1] / 2, self.size[2] / 2)
         assert self.radius is not None and self.height is not None
         return (self.radius, self.radius, self.height / 2)
 
@@ -373,9 +381,9 @@ _OVERLAP_SLACK = 1e-6
 def _footprint(
     obj: ObjectSpec, x: float, y: float, yaw: float
 ) -> tuple[float, float, float, float, float | None]:
-    """(x, y, yaw, half x, half y) of a grill's rectangle, or (x, y, 0, r, None) of a circle,
-    for the object standing at (x, y) with ``yaw`` (in any one planar frame)."""
-    if obj.shape == "grill":
+    """(x, y, yaw, half x, half y) of a grill's or a box's rectangle, or (x, y, 0, r, None) of a
+    circle, for the object standing at (x, y) with ``yaw`` (in any one planar frame)."""
+    if obj.shape in ("grill", "box"):
         hx, hy, _ = obj.half_extents
         return (x, y, yaw, hx, hy)
     assert obj.radius is not None

@@ -155,7 +155,7 @@ def test_the_centre_of_mass_is_the_shapes_centroid(problems) -> None:
     z, half = centre_of_mass(grill)[2], grill.size[2] / 2
     assert min(half, grill.handle_z) < z < max(half, grill.handle_z)  # handles pull it a little
     assert abs(z - half) < 0.01
-    assert set(MASS_KG) == {"cylinder", "disc", "grill"}
+    assert set(MASS_KG) == {"cylinder", "disc", "grill", "box"}
     assert all(mass > 0 and math.isfinite(mass) for mass in MASS_KG.values())
 
 

@@ -177,7 +177,8 @@ class Streams:
         geometry = k.geometry
         args = key.inputs
         if key.stream == "sample-grasp":
-            return Outcome(k.add_grasp(geometry.sample_grasp(args[0], rng)))
+            grasp = geometry.sample_grasp(args[0], rng)
+            return Outcome(None, exhausted=True) if grasp is None else Outcome(k.add_grasp(grasp))
         if key.stream == "sample-pose":
             pose = geometry.sample_pose(args[0], args[1], rng)
             return Outcome(None, exhausted=True) if pose is None else Outcome(k.add_pose(pose))

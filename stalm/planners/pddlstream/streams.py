@@ -36,9 +36,11 @@ from stalm.geometry.transforms import compose, invert, se2_to_world, wrap_angle,
 from stalm.motion.grasps import (
     draw_placement,
     grasp_points,
+    grasp_window,
     gripper_target,
     placement_bounds,
     sample_grasp_angles,
+    yaw_limited,
 )
 from stalm.motion.manipulation import (
     PARKED,
@@ -49,6 +51,8 @@ from stalm.motion.manipulation import (
 )
 from stalm.motion.sweeps import Segment, SweptMotion, sweep, sweep_near
 from stalm.planners.pddlstream.values import GraspValue, MotionValue, PoseValue
+from stalm.world import robot as robot_model
+from stalm.world.grip_widths import too_wide
 from stalm.world.relations import direction_between, supporting_region
 from stalm.world.robot import CARRY_CONF
 from stalm.world.state import Grasp, ObjectPose, RobotConf
@@ -146,15 +150,20 @@ class StreamGeometry:
         )
 
     # ------------------------------------------------------------------ samplers
-    def sample_grasp(self, obj: str, rng: np.random.Generator) -> GraspValue:
-        """Pitch and yaw uniform in PICK's ranges, at the grasp point nearest the robot.
+    def sample_grasp(self, obj: str, rng: np.random.Generator) -> GraspValue | None:
+        """Pitch and yaw uniform in PICK's ranges, at the grasp point nearest the robot (a
+        box's yaw range cut to where it fits the gripper; None if no grasp fits).
 
         The object's pose in the gripper frame is computed in a canonical scene (standing
         pose at the origin facing +x, the object 0.7 m ahead with its kept relative yaw):
         every pose of the object relative to its standing pose shares that yaw, so the
         same transform holds at every pose."""
-        pitch, yaw = sample_grasp_angles(rng, self.settings.pitch_range, self.settings.yaw_range)
         frame = (CANONICAL_DISTANCE, 0.0, self._yaw_offset[obj])
+        if too_wide(self.spec.object(obj), robot_model.GRIPPER_GAP) is not None:
+            return None
+        if yaw_limited(self.spec.object(obj)):
+            return self._sample_box_grasp(obj, frame, rng)
+        pitch, yaw = sample_grasp_angles(rng, self.settings.pitch_range, self.settings.yaw_range)
         point = min(
             grasp_points(self.spec.object(obj)),
             key=lambda q: math.hypot(*se2_to_world(frame, q[0], q[1])),
@@ -163,6 +172,26 @@ class StreamGeometry:
         target = gripper_target((wx, wy, point[2]), 0.0, pitch, yaw)
         relative = compose(invert(target), ((frame[0], 0.0, 0.0), yaw_quat(frame[2])))
         return GraspValue(obj, pitch, yaw, point, Grasp.make(obj, relative[0], relative[1]))
+
+    def _sample_box_grasp(
+        self, obj: str, frame: tuple[float, float, float], rng: np.random.Generator
+    ) -> GraspValue | None:
+        """A box's grasp in the canonical scene: its yaw range cut to where the gripper's
+        opening fits (:func:`~stalm.motion.grasps.grasp_window`); None if nothing fits."""
+        pose = ObjectPose.make(frame[0], frame[1], 0.0, frame[2])
+        window = grasp_window(
+            self.spec.object(obj),
+            pose,
+            (0.0, 0.0, 0.0),
+            self.settings.pitch_range,
+            self.settings.yaw_range,
+        )
+        if window is None:
+            return None
+        pitch, yaw = sample_grasp_angles(rng, window.pitch_range, window.yaw_range)
+        target = gripper_target(window.point, 0.0, pitch, yaw)
+        relative = compose(invert(target), ((frame[0], 0.0, 0.0), yaw_quat(frame[2])))
+        return GraspValue(obj, pitch, yaw, window.local, Grasp.make(obj, relative[0], relative[1]))
 
     def sample_pose(self, obj: str, region: str, rng: np.random.Generator) -> PoseValue | None:
         """One uniform placement on ``region``; None if the object does not fit there."""
