@@ -87,7 +87,7 @@ class IterativeReplanningPlanner(OnlinePlanner):
         return self.options.occlusion_predicates
 
     def start(self, trial: Trial) -> ReplanningRounds:
-        return ReplanningRounds(self, trial, Vocabulary.from_problem(trial.problem))
+        return ReplanningRounds(self, trial, Vocabulary.from_problem(trial.episode.problem))
 
 
 @dataclass
@@ -108,11 +108,11 @@ class ReplanningRounds:
 
     def decide(self) -> Decision:
         trial, settings = self.trial, self.planner.settings
-        episode, problem, done = trial.episode, trial.problem, trial.done
+        episode, problem, done = trial.episode, trial.episode.problem, trial.done
         if done != self.memory_at:
             self.memory, self.memory_at = [], done
         trial.say(f"step {done}: predicates")
-        predicates = trial.predicates()
+        predicates = episode.predicates()
         base_prompt = problem_prompt(problem, predicates.literals, self.planner.options)
         latest: ConcretePlan | None = None
         to_execute: tuple[Action, ...] = ()
@@ -145,7 +145,7 @@ class ReplanningRounds:
             with trial.phase("concretize"):
                 concrete = concretize(
                     trial.domain,
-                    trial.state,
+                    episode.state,
                     [task_plan],
                     trial.rng,
                     depth0=done,

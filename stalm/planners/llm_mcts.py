@@ -319,7 +319,7 @@ class LlmMctsSteps:
         self.trial = trial
         settings = planner.settings
         self.prior = LLMPrior(
-            trial.problem,
+            trial.episode.problem,
             planner.proposer,
             self._literals,
             trial_seed=trial.seed,
@@ -343,7 +343,7 @@ class LlmMctsSteps:
         search = trial.within_horizon(self.planner.settings.search)
         trial.replans += 1
         trial.say(f"step {trial.done}: MCTS with an LLM prior, {search.budget} sims")
-        tree = trial.tree_at(trial.state) if trial.reuse_tree else None
+        tree = trial.tree_at(trial.episode.state) if trial.reuse_tree else None
         if tree is None:
             prior.new_tree()
         else:
@@ -352,7 +352,7 @@ class LlmMctsSteps:
         with trial.phase("tree"):
             result = warm_started_uct(
                 trial.domain,
-                trial.state,
+                trial.episode.state,
                 (),
                 trial.rng,
                 settings=search,

@@ -208,8 +208,7 @@ class EpSayCanPlanner(OnlinePlanner):
         tally: DecisionTally,
     ) -> Action | None:
         """One SayCan decision in the current state: a feasible sampled action, or None."""
-        problem = episode.problem
-        state = episode.state
+        problem, state, say = episode.problem, episode.state, episode.observer.message
         affordable = affordance(domain, state, literals)
         candidates = domain.legal_actions(state)
         history = [action.discrete for action in episode.executed]
@@ -217,7 +216,7 @@ class EpSayCanPlanner(OnlinePlanner):
         for attempt in range(self.settings.max_queries_per_step):
             if episode.out_of_time():
                 return None
-            self.say(f"step {step}: asking for {self.settings.n_batch} replies")
+            say(f"step {step}: asking for {self.settings.n_batch} replies")
             proposal = ask_for_task_plans(
                 self.backend,
                 Vocabulary.from_problem(problem),
@@ -248,11 +247,11 @@ class EpSayCanPlanner(OnlinePlanner):
                     return chosen
                 tally.kappa_failures += 1
                 excluded.add(best)
-                self.say(f"step {step}: no feasible κ for {best}; excluded at this state")
+                say(f"step {step}: no feasible κ for {best}; excluded at this state")
             tally.zero_score_queries += 1
             tally.decisions.append(_decision(step, attempt, proposal.plans, scores, None))
             if not any(affordable(a) and a not in excluded for a in candidates):
-                self.say(f"step {step}: no affordable action left in this state")
+                say(f"step {step}: no affordable action left in this state")
                 return None
         return None
 
@@ -280,7 +279,7 @@ class SayCanSteps:
     def decide(self) -> Decision:
         trial = self.trial
         trial.say(f"step {self.step}: predicates")
-        predicates = trial.predicates()
+        predicates = trial.episode.predicates()
         chosen = self.planner.decide(
             trial.domain,
             trial.episode,
@@ -292,7 +291,7 @@ class SayCanSteps:
         )
         trial.replans = self.tally.queries
         if chosen is None:
-            return "timeout" if trial.out_of_time() else "no_progress"
+            return "timeout" if trial.episode.out_of_time() else "no_progress"
         self.step += 1
         return (chosen,)
 

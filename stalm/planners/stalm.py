@@ -1,50 +1,42 @@
 """STaLM (Algorithm 1), run online as the authors ran it, with what this implementation adds.
 
-Each real step: compute the state's predicates (Appendix A's cache after the first step), ask
-the proposer for N_batch task plans, Concretize them (Algorithm 2); if one reaches the goal,
-execute it; otherwise run WarmStartedUCT (Algorithms 3–5) warm-started with everything
-Concretize explored; if a simulation reaches the goal, execute that plan, else execute one
-root action and plan again from the resulting state. :meth:`StalmStep.decide` is that step,
-top to bottom; the search and its execution rule are
-:meth:`~stalm.planners.tree_step.SearchStep.search`, shared with UCT. The trial itself -- one
-deadline, the executed plan, its replay in a fresh scene -- is
+:meth:`StalmStep.decide` is one real step in the paper's words, top to bottom: CreatePrompt
+and the proposer's task plans, Concretize (Algorithm 2), a plan that reached the goal executed
+whole, else WarmStartedUCT (Algorithms 3-5, :func:`~stalm.planners.tree_step.search`, shared
+with UCT) warm-started with what Concretize explored, and its plan or one root action
+executed. What the step records on the way is :class:`ProposalAccount`'s; the trial itself
+(one deadline, the executed plan, its replay in a fresh scene) is
 :class:`~stalm.trial.online.OnlinePlanner`'s.
 
-Beyond the paper, each a setting of the run's settings tree
-(:class:`~stalm.settings.tree.RunSettings`, read through :class:`StalmSettings`) with the
-paper's way one switch away: tree reuse and the execution rule
-(:mod:`stalm.planners.tree_step`), and **geometric feedback**: the steps Concretize found
-infeasible go back to the proposer (:mod:`stalm.proposers.feedback`), which is asked again in
-the same step while it comes up with task plans not yet tried there (at most
-``feedback_rounds`` proposals per step).
+Beyond the paper, each one switch away from the paper's way in the run's settings tree: tree
+reuse and the execution rule (:mod:`stalm.planners.tree_step`), and **geometric feedback**:
+the steps Concretize found infeasible go back to the proposer (:mod:`stalm.proposers.feedback`),
+asked again in the same step while it offers task plans not yet tried there.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from dataclasses import replace
-from typing import Any, ClassVar
+from collections import Counter
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
-from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
+from stalm.planners.tree_step import StalmSettings, TreePlanner, begin_step, search, tree_details
+from stalm.predicates.literals import GroundLiteral
 from stalm.progress import Progress
 from stalm.proposers.fast_downward import SymbolicProposer
-from stalm.proposers.feedback import failed_steps
+from stalm.proposers.feedback import FailedStep, failed_steps
 from stalm.proposers.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
 from stalm.proposers.language_model import LLMProposer
 from stalm.proposers.model_backend import llm_backend, use_constraint
 from stalm.proposers.noisy import NoisyProposer, injected_records
-from stalm.proposers.protocol import ProposalRequest, TaskPlanProposer
-from stalm.search import (
-    ConcretePlan,
-    ConcretizeResult,
-    SearchPolicies,
-    TaskPlan,
-    concretize,
-)
+from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
+from stalm.search import ConcretePlan, ConcretizeResult, SearchPolicies, TaskPlan, concretize
 from stalm.settings.tree import ProposerKind, RunSettings
 from stalm.trial.online import Decision, Sampling, Trial
 from stalm.trial.query_seeds import stalm_proposal_seed
@@ -55,188 +47,228 @@ __all__ = ["StalmPlanner", "StalmSettings", "StalmStep"]
 log = logging.getLogger(__name__)
 """Each proposal round's plans and what Concretize made of them, at INFO."""
 
+NoGoalPlan = Callable[["StalmStep", list[ConcretePlan], StepRecord], tuple[Action, ...]]
+"""What a step executes when no task plan reached the goal (STaLM: :func:`warm_started_search`;
+STaLM w/o UCT: the best plan's first action); it says why in the step's record."""
 
-class StalmStep(SearchStep):
-    """STaLM's real step: task plans, Concretize, and the search when none reached the goal."""
 
-    def __init__(
-        self,
-        trial: Trial,
-        settings: StalmSettings,
-        policies: SearchPolicies,
-        proposer: TaskPlanProposer,
-    ) -> None:
-        super().__init__(trial, settings, policies)
-        self.proposer = proposer
-        self.memory = FeedbackMemory.empty()
-        """What the proposer was told (geometric feedback)."""
-        self.proposals = 0
-        self.injected: list[dict[str, Any]] = []
-        """The noisy proposer's plans: what was injected into each, and its Figure 5 kind."""
+@dataclass
+class StalmStep:
+    """STaLM's real step, Algorithm 1's body from the current state s, read top to bottom in
+    :meth:`decide` and :meth:`propose_and_concretize`; what it records on the way (progress,
+    queries, noise, the step log) is its :class:`ProposalAccount`'s."""
 
-    def details(self) -> dict[str, Any]:
-        details = {
-            **super().details(),
-            "proposer": self.proposer.name,
-            "proposals": self.proposals,
-            "feedback_steps_learned": len(self.memory.steps),
-        }
-        if isinstance(self.proposer, NoisyProposer):
-            details["noise"] = {**self.proposer.describe(), "plans": self.injected}
-        return details
+    trial: Trial
+    settings: StalmSettings
+    policies: SearchPolicies
+    account: ProposalAccount
+    """The proposer, asked through the record of its queries."""
+    no_goal_plan: NoGoalPlan
+    memory: FeedbackMemory = field(default_factory=FeedbackMemory.empty)
+    """What the proposer was told (geometric feedback)."""
+    step_log: list[StepRecord] = field(default_factory=list)
 
     def decide(self) -> Decision:
-        """Algorithm 1's loop body: task plans for the current state, concretized; a plan
-        that reached the goal is executed whole, else WarmStartedUCT from the current state,
-        warm-started with what Concretize grounded, decides what to execute."""
-        record = self.begin()
-        plans, solution = self.propose(record)
+        """Task plans for s, concretized (L2-3); one that reached the goal is executed whole
+        (L4-5); else WarmStartedUCT, warm-started with what Concretize grounded, decides what
+        to execute (L6-7)."""
+        record = begin_step(self.trial, self.step_log)
+        plans, solution = self.propose_and_concretize(record)
         if solution is not None:
-            record.decision = "concretize_goal"
-            to_execute = solution
-        elif self.trial.out_of_time():
-            record.decision = "timeout"
-            return "timeout"
-        else:
-            to_execute = self.without_goal_plan(plans, record)
-        record.executed = len(to_execute)
+            return record.executes(solution, "concretize_goal")
+        if self.trial.episode.out_of_time():
+            return record.timed_out()
         # nothing feasible found (an empty plan): the loop asks again from the same state
-        return to_execute
+        return record.executes(self.no_goal_plan(self, plans, record))
 
-    def propose(self, record: StepRecord) -> tuple[list[ConcretePlan], tuple[Action, ...] | None]:
-        """Task plans from the proposer, concretized; with feedback, ask again (at most
-        ``feedback_rounds`` times) while the proposer offers plans not yet tried in this step.
-        Each round's plans go into ``record``."""
-        trial, proposer, settings = self.trial, self.proposer, self.settings
-        episode, domain, state, done = trial.episode, trial.domain, trial.state, trial.done
-        trial.say(f"step {done}: predicates")
-        predicates = trial.predicates()
-        share_end = self.share_end()
+    def propose_and_concretize(
+        self, record: StepRecord
+    ) -> tuple[list[ConcretePlan], tuple[Action, ...] | None]:
+        """TaskPlans <- QueryLLM(CreatePrompt(s, G), N_batch); success, Plans <-
+        Concretize(TaskPlans, s, h). With feedback, the steps Concretize found infeasible are
+        learned and the proposer asked again (at most ``feedback_rounds`` times) while it
+        offers plans not yet tried in this step."""
+        trial, settings, account = self.trial, self.settings, self.account
+        trial.say(f"step {trial.done}: predicates")
+        literals = trial.episode.predicates().literals
+        step_end = trial.share_end(settings.step_share)
         plans: list[ConcretePlan] = []
         tried: set[tuple[DiscreteAction, ...]] = set()
         for round_ in range(settings.feedback_rounds if settings.feedback else 1):
-            feedback = self.memory.holding_in(state) if settings.feedback else ()
-            trial.say(f"step {done}: asking {proposer.name} for task plans")
-            trial.observer.proposal(self.proposals, proposer.name)
-            query_seed = stalm_proposal_seed(trial.seed, self.proposals)
-            proposal = proposer.propose(
-                ProposalRequest(
-                    episode.problem,
-                    state,
-                    predicates.literals,
-                    settings.n_batch,
-                    query_seed,
-                    deadline=episode.deadline,
-                    feedback=tuple(feedback),
-                )
-            )
-            self.proposals += 1
-            episode.record_query(proposal)
-            if episode.out_of_time():
+            feedback = self.memory.holding_in(trial.episode.state) if settings.feedback else ()
+            proposal = account.query(self.create_prompt(literals, feedback))
+            if trial.episode.out_of_time():
                 return plans, None
-            task_plans = [TaskPlan(plan) for plan in proposal.plans]
-            task_plans += [TaskPlan.unreadable(reason) for reason in proposal.unparseable]
-            task_plans += [TaskPlan.none_found(reason) for reason in proposal.no_plan]
-            trial.say(f"step {done}: concretizing {len(task_plans)} task plans")
-            trial.observer.concretize(round_, len(task_plans))
-            with trial.phase("concretize"):
-                concrete = concretize(
-                    domain,
-                    state,
-                    task_plans,
-                    trial.rng,
-                    depth0=done,
-                    horizon=episode.problem.horizon,
-                    kappa_tries=settings.kappa_tries,
-                    backtracks=settings.backtracks,
-                )
-            episode.count_failures(concrete)
-            if proposal.injected:
-                self.injected += injected_records(
-                    done, round_, proposal.injected, concrete.plans, predicates.literals
-                )
-            round_entry = proposal_record(
-                round_, len(feedback), concrete.plans, predicates.literals
-            )
-            if proposal.set_aside:
-                round_entry["set_aside"] = list(proposal.set_aside)
-            record.proposals.append(round_entry)
-            log.info(
-                "step %d, round %d: %s offered %d task plan(s)%s; %s",
-                done,
-                round_,
-                proposer.name,
-                len(task_plans),
-                f" after {len(feedback)} feedback fact(s)" if feedback else "",
-                concretize_summary(concrete),
-            )
+            concrete = self.concretize(proposal, round_)
+            entry = account.concretized(record, round_, proposal, concrete, feedback, literals)
             plans.extend(concrete.plans)
             if concrete.success and concrete.solution is not None:
                 return plans, concrete.solution
             if not settings.feedback or not proposal.plans:
                 break
-            learned = self.memory.learn(failed_steps(episode.problem, concrete.plans))
-            refuted = self.memory.observe(grounded_steps(episode.problem, concrete.plans))
-            round_entry.update(feedback_round_record(concrete, learned, refuted))
+            entry.update(self.learn(concrete))
             fresh = {plan.task_plan.actions for plan in concrete.plans} - tried
             tried |= fresh
             # ask again while the proposer still comes up with plans not tried in this step
             # (a lesson learned, or a different draw failing where no lesson could be drawn)
-            if not fresh or time.monotonic() >= share_end:
+            if not fresh or time.monotonic() >= step_end:
                 break
         return plans, None
 
-    def without_goal_plan(
-        self, plans: list[ConcretePlan], record: StepRecord
-    ) -> tuple[Action, ...]:
-        """No task plan reached the goal: the warm-started search decides
-        (:meth:`SearchStep.search`); with feedback, the picks and placements its simulations
-        found feasible then refute the rules that forbid them."""
-        chosen = self.search(plans, record)
-        tree = self.trial.tree
-        if self.settings.feedback and tree is not None:
-            refuted = self.memory.observe(grounded_in_tree(self.trial.episode.problem, tree))
-            record.rules_refuted_by_tree = refuted
-        return chosen
+    def create_prompt(
+        self, literals: frozenset[GroundLiteral], feedback: tuple[FailedStep, ...]
+    ) -> ProposalRequest:
+        """CreatePrompt(s, G): N_batch task plans for the current state, its predicates and
+        what geometric feedback says holds there."""
+        episode = self.trial.episode
+        return ProposalRequest(
+            episode.problem,
+            episode.state,
+            literals,
+            self.settings.n_batch,
+            stalm_proposal_seed(self.trial.seed, self.account.proposals),
+            deadline=episode.deadline,
+            feedback=feedback,
+        )
+
+    def concretize(self, proposal: Proposal, round_: int) -> ConcretizeResult:
+        """Concretize(TaskPlans, s, h) (Algorithm 2) of every plan of ``proposal``, its
+        unreadable replies and its reasons for no plan included (Figure 5 counts them)."""
+        trial, settings = self.trial, self.settings
+        task_plans = [TaskPlan(plan) for plan in proposal.plans]
+        task_plans += [TaskPlan.unreadable(reason) for reason in proposal.unparseable]
+        task_plans += [TaskPlan.none_found(reason) for reason in proposal.no_plan]
+        self.account.concretizing(round_, len(task_plans))
+        with trial.phase("concretize"):
+            return concretize(
+                trial.domain,
+                trial.episode.state,
+                task_plans,
+                trial.rng,
+                depth0=trial.done,
+                horizon=trial.episode.problem.horizon,
+                kappa_tries=settings.kappa_tries,
+                backtracks=settings.backtracks,
+            )
+
+    def learn(self, concrete: ConcretizeResult) -> dict[str, Any]:
+        """Geometric feedback from a round: its failed steps are learned, its grounded picks and
+        placements refute rules; for the round's step-log entry, ``facts_learned`` counts the
+        lessons not known before (a rule adds no PDDL fact), ``rules_refuted`` the rules."""
+        problem = self.trial.episode.problem
+        learned = self.memory.learn(failed_steps(problem, concrete.plans))
+        refuted = self.memory.observe(grounded_steps(problem, concrete.plans))
+        failures = [kind for _, kind in concrete.failures]
+        return {"failures": failures, "facts_learned": learned, "rules_refuted": refuted}
+
+    def details(self) -> dict[str, Any]:
+        return {
+            **tree_details(self.trial, self.settings, self.step_log),
+            **self.account.details(),
+            "feedback_steps_learned": len(self.memory.steps),
+        }
+
+
+def warm_started_search(
+    step: StalmStep, plans: list[ConcretePlan], record: StepRecord
+) -> tuple[Action, ...]:
+    """WarmStartedUCT(Plans, s, h, N_budget) and the execution rule (:func:`search`); with
+    feedback, the picks and placements its simulations found feasible then refute the rules
+    that forbid them."""
+    chosen = search(step.trial, step.settings, step.policies, plans, record)
+    tree = step.trial.tree
+    if step.settings.feedback and tree is not None:
+        problem = step.trial.episode.problem
+        record.rules_refuted_by_tree = step.memory.observe(grounded_in_tree(problem, tree))
+    return chosen
+
+
+@dataclass
+class ProposalAccount:
+    """STaLM's proposer with what its step records around each query, so that the step reads
+    as Algorithm 1: progress, the query's cost, the failure kinds, the noisy proposer's
+    injections, each round's entry of the step log. The step reads back only the count of
+    proposals (the next query's seed)."""
+
+    trial: Trial
+    proposer: TaskPlanProposer
+    proposals: int = 0
+    injected: list[dict[str, Any]] = field(default_factory=list)
+    """The noisy proposer's plans: what was injected into each, and its Figure 5 kind."""
+
+    def query(self, request: ProposalRequest) -> Proposal:
+        """QueryLLM: the proposer's answer to ``request``, announced and recorded."""
+        name = self.proposer.name
+        self.trial.say(f"step {self.trial.done}: asking {name} for task plans")
+        self.trial.episode.observer.proposal(self.proposals, name)
+        proposal = self.proposer.propose(request)
+        self.proposals += 1
+        self.trial.episode.record_query(proposal)
+        return proposal
+
+    def concretizing(self, round_: int, plans: int) -> None:
+        self.trial.say(f"step {self.trial.done}: concretizing {plans} task plans")
+        self.trial.episode.observer.concretize(round_, plans)
+
+    def concretized(
+        self,
+        record: StepRecord,
+        round_: int,
+        proposal: Proposal,
+        concrete: ConcretizeResult,
+        feedback: tuple[FailedStep, ...],
+        literals: Iterable[GroundLiteral],
+    ) -> dict[str, Any]:
+        """Round ``round_``'s failure kinds, injections and entry of the step log (returned:
+        a feedback round adds what it learned)."""
+        done = self.trial.done
+        self.trial.episode.count_failures(concrete)
+        if proposal.injected:
+            self.injected += injected_records(
+                done, round_, proposal.injected, concrete.plans, literals
+            )
+        entry = proposal_record(round_, len(feedback), concrete.plans, literals)
+        if proposal.set_aside:
+            entry["set_aside"] = list(proposal.set_aside)
+        record.proposals.append(entry)
+        log.info(
+            "step %d, round %d: %s offered %d task plan(s)%s; %s",
+            done,
+            round_,
+            self.proposer.name,
+            len(proposal.plans) + len(proposal.unparseable) + len(proposal.no_plan),
+            f" after {len(feedback)} feedback fact(s)" if feedback else "",
+            concretize_summary(concrete),
+        )
+        return entry
+
+    def details(self) -> dict[str, Any]:
+        proposer = self.proposer
+        details: dict[str, Any] = {"proposer": proposer.name, "proposals": self.proposals}
+        if isinstance(proposer, NoisyProposer):
+            details["noise"] = {**proposer.describe(), "plans": self.injected}
+        return details
 
 
 def concretize_summary(concrete: ConcretizeResult) -> str:
     """What Concretize made of a round's task plans, in a few words (for the log)."""
     if concrete.success:
         return "one reached the goal"
-    kinds = [kind for _, kind in concrete.failures]
-    if not kinds:
-        return "none reached the goal"
-    counted = {kind: kinds.count(kind) for kind in dict.fromkeys(kinds)}
-    return "none reached the goal (" + ", ".join(f"{n} {k}" for k, n in counted.items()) + ")"
-
-
-def feedback_round_record(concrete: ConcretizeResult, learned: int, refuted: int) -> dict[str, Any]:
-    """What a feedback round taught, added to its proposal's entry of the step log:
-    ``facts_learned`` counts the lessons (failed steps and rules) that were not known before,
-    as :meth:`FeedbackMemory.learn` returns them (a rule adds no PDDL fact of its own), and
-    ``rules_refuted`` the rules the round's grounded steps refuted."""
-    return {
-        "failures": [kind for _, kind in concrete.failures],
-        "facts_learned": learned,
-        "rules_refuted": refuted,
-    }
+    counted = Counter(kind for _, kind in concrete.failures)
+    kinds = ", ".join(f"{n} {kind}" for kind, n in counted.items())
+    return "none reached the goal" + (f" ({kinds})" if kinds else "")
 
 
 class StalmPlanner(TreePlanner):
     """STaLM with any task-plan proposer, configured by a run's settings tree.
 
-    ``settings`` is that tree (None: :class:`RunSettings`' defaults, which ``stalm solve``
-    runs without overrides). The proposer given is the one that runs, so the tree's
-    ``proposer.kind`` is taken to be its kind (:func:`proposer_kind`): that kind decides the
-    defaults that depend on the proposer (feedback and backtracks), so
+    ``settings`` is that tree (None: its defaults). The proposer given is the one that runs,
+    so it decides the tree's ``proposer.kind`` (:func:`proposer_kind`) and with it the
+    defaults that depend on the proposer (feedback and backtracks):
     ``StalmPlanner(SymbolicProposer())`` runs what ``stalm solve --proposer symbolic`` runs.
-    ``settings`` on the planner is what its steps read of the tree (:class:`StalmSettings`).
     """
 
     name = "stalm"
-    step_type: ClassVar[type[StalmStep]] = StalmStep
-    """The real step this planner runs (STaLM w/o UCT: another decision without a goal plan)."""
 
     def __init__(
         self,
@@ -258,7 +290,12 @@ class StalmPlanner(TreePlanner):
                 "switch feedback off"
             )
         policies = SearchPolicies.from_settings(self.settings.search)
-        return self.step_type(trial, self.settings, policies, proposer)
+        account = ProposalAccount(trial, proposer)
+        return StalmStep(trial, self.settings, policies, account, self.no_goal_plan())
+
+    def no_goal_plan(self) -> NoGoalPlan:
+        """What its step executes when no task plan reached the goal (STaLM w/o UCT: another)."""
+        return warm_started_search
 
 
 def proposer_kind(proposer: TaskPlanProposer) -> ProposerKind:
@@ -266,17 +303,12 @@ def proposer_kind(proposer: TaskPlanProposer) -> ProposerKind:
     the noisy proposer, 'llm' for any other (a language model or a proposer of one's own)."""
     if isinstance(proposer, SymbolicProposer):
         return "symbolic"
-    if isinstance(proposer, NoisyProposer):
-        return "noisy"
-    return "llm"
+    return "noisy" if isinstance(proposer, NoisyProposer) else "llm"
 
 
 def with_proposer_kind(settings: RunSettings, proposer: TaskPlanProposer) -> RunSettings:
-    """``settings`` with ``proposer``'s kind as ``proposer.kind`` (itself if it is already)."""
-    kind = proposer_kind(proposer)
-    if settings.proposer.kind == kind:
-        return settings
-    return replace(settings, proposer=replace(settings.proposer, kind=kind))
+    """``settings`` with ``proposer``'s kind as ``proposer.kind``."""
+    return replace(settings, proposer=replace(settings.proposer, kind=proposer_kind(proposer)))
 
 
 def proposer_for(settings: RunSettings) -> TaskPlanProposer:

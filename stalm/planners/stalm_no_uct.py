@@ -10,38 +10,29 @@ its settings.
 from __future__ import annotations
 
 from stalm.domain.params import Action
-from stalm.planners.stalm import StalmPlanner, StalmStep, proposer_for
+from stalm.planners.stalm import NoGoalPlan, StalmPlanner, StalmStep, proposer_for
 from stalm.progress import Progress
 from stalm.search import ConcretePlan
 from stalm.settings.tree import RunSettings
 from stalm.trial.step_log import StepRecord
 
 
-class NoUctStep(StalmStep):
-    """STaLM's step whose decision without a goal plan is the best plan's first action."""
-
-    def without_goal_plan(
-        self, plans: list[ConcretePlan], record: StepRecord
-    ) -> tuple[Action, ...]:
-        record.decision = "best_prefix"
-        return first_action_of_best_prefix(plans)
+def best_prefix_first_action(
+    step: StalmStep, plans: list[ConcretePlan], record: StepRecord
+) -> tuple[Action, ...]:
+    """STaLM w/o UCT's decision without a goal plan: the first action of the task plan that
+    got furthest (the first of equally long ones)."""
+    record.decision = "best_prefix"
+    return max((plan.actions for plan in plans), key=len, default=())[:1]
 
 
 class StalmNoUctPlanner(StalmPlanner):
     """STaLM without the tree search (Table 3's 'STaLM w/o UCT')."""
 
     name = "stalm-no-uct"
-    step_type = NoUctStep
 
-
-def first_action_of_best_prefix(plans: list[ConcretePlan]) -> tuple[Action, ...]:
-    """The first action of the task plan that got furthest (the first of equally long ones)."""
-    best: tuple[Action, ...] = ()
-    for plan in plans:
-        actions = plan.actions
-        if len(actions) > len(best):
-            best = actions
-    return best[:1]
+    def no_goal_plan(self) -> NoGoalPlan:
+        return best_prefix_first_action
 
 
 def build_stalm_no_uct(settings: RunSettings, progress: Progress | None) -> StalmNoUctPlanner:

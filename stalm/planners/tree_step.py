@@ -1,13 +1,11 @@
-"""One real step of the tree planners: STaLM, STaLM w/o UCT, UCT and UCT-with-Hcount.
+"""The end of every tree planner's real step (STaLM, STaLM w/o UCT, UCT, UCT-with-Hcount).
 
-These four end a real step alike: without a plan that reached the goal, they run (warm-started)
-UCT from the current state and execute what the execution rule chooses
-(:meth:`SearchStep.search`; STaLM w/o UCT takes the best plan's first action instead). UCT's
-step is only that (:meth:`SearchStep.decide`); STaLM's first gets task plans and Concretizes
-them (:meth:`stalm.planners.stalm.StalmStep.decide`). Each step fills a record of what it
-did (:class:`~stalm.trial.step_log.StepRecord`). :class:`SearchStep` is the shared step;
-:class:`StalmSettings` what it reads of the run's settings tree, which holds the paper's values
-and what this implementation adds:
+Without a plan that reached the goal they run (warm-started) UCT from the current state and
+execute what the execution rule chooses (:func:`search`; STaLM w/o UCT takes the best plan's
+first action instead). UCT's step is only that (:class:`SearchStep`); STaLM's first gets task
+plans and Concretizes them (:class:`stalm.planners.stalm.StalmStep`). Each step fills a
+:class:`~stalm.trial.step_log.StepRecord`. :class:`StalmSettings` is what they read of the
+run's settings tree, which holds the paper's values and what this implementation adds:
 
 * **tree reuse** (the authors' loop): the executed child's subtree is the next step's tree
   (:meth:`stalm.trial.online.Trial.execute`), so statistics accumulate over the episode;
@@ -22,7 +20,8 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any, cast
 
 from stalm.domain.mdp import Domain, RewardSettings
@@ -39,48 +38,32 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class StalmSettings:
-    """What the tree planners read of a run's settings tree, typed and resolved for one
-    planner: Appendix B's N_batch, N_budget, c, PW and γ, and what this implementation adds
-    beyond the paper (each can be switched back to the paper's way in the tree).
-
-    A view with no defaults of its own: :meth:`of` builds it from a
-    :class:`~stalm.settings.tree.RunSettings`, whose sections hold every default and
-    check every value, so a planner built by hand runs what ``stalm solve`` runs.
-    """
+    """What the tree planners read of a run's settings tree, resolved for one planner: a view
+    with no defaults of its own (:meth:`of`), so a planner built by hand runs what ``stalm
+    solve`` runs. Each field is explained where the tree declares it."""
 
     n_batch: int
-    """N_batch: task plans per query (``search.batch``)."""
+    """N_batch (``search.batch``)."""
     search: SearchSettings
     """The search's constants with this planner's N_budget (``search``)."""
     reuse_tree: bool
-    """Keep the executed child's subtree as the next step's tree (the authors' experiment
-    loop); False starts every real step from a fresh tree."""
+    """``execution.reuse_tree``."""
     feedback: bool
-    """Geometric feedback (:mod:`stalm.proposers.feedback`): Concretize's failed steps go back
-    to the proposer, which is asked again while it offers task plans not yet tried in the
-    step (at most ``feedback_rounds`` times)."""
+    """Geometric feedback (``execution.feedback``, resolved; never for UCT)."""
     feedback_rounds: int
-    """At most this many proposals per real step with feedback (the first one included)."""
+    """``execution.feedback_rounds``."""
     search_rounds: int
-    """'progress' rule: at most this many searches from one root before the best-Q fallback
-    (a count, so that decisions do not depend on the machine's speed)."""
+    """``execution.search_rounds``."""
     step_share: float
-    """A real step may spend at most this fraction of the trial's remaining time asking the
-    proposer again (feedback) or searching on with no progress ('progress' rule); 1.0: no
-    guard but the trial's deadline."""
+    """``execution.step_share``."""
     execution: ExecutionRule
-    """What to execute when no goal plan was found: 'best_q' the highest-Q root action (the
-    authors' rule); 'progress' the highest-Q root action from which the tree reaches more
-    goal conjuncts than the root has, searching on (at most ``search_rounds`` searches) while
-    none does."""
+    """``execution.rule``."""
     kappa_tries: int
-    """κ draws per task-plan step in Concretize (Algorithm 2: 1; the authors' code: 3)."""
+    """``execution.kappa_tries``."""
     backtracks: int
-    """Concretize draws a placement again when an object the plan put down is in the way of a
-    later step, at most this many times per plan (0: Algorithm 2)."""
+    """``execution.backtracks``, resolved."""
     rewards: RewardSettings
-    """R's constants (§4.1, with this implementation's potential-based −3 for an undone goal
-    conjunct)."""
+    """R's constants (``rewards``)."""
     occlusion_predicates: bool
     """Compute PickOccludedBy/PlaceOccludedBy: for the prompt (False for Table 4's arms whose
     prompt does not show them, so those arms do not pay for motion planning they never use)
@@ -123,118 +106,121 @@ class TreePlanner(ConfiguredPlanner):
     settings: StalmSettings
 
 
+@dataclass
 class SearchStep:
-    """UCT's real step, and the search every tree planner's step ends in (see the module
-    docstring). Each step's :class:`StepRecord` is made by :meth:`begin` and handed to the
-    parts of the step that fill it in."""
+    """UCT's real step: search from the current state, execute what the execution rule
+    chooses (:func:`search`, the end of every tree planner's step)."""
 
-    def __init__(self, trial: Trial, settings: StalmSettings, policies: SearchPolicies) -> None:
-        self.trial = trial
-        self.settings = settings
-        self.policies = policies
-        self.step_log: list[StepRecord] = []
-        """Per real step: the task plans and their fate, the tree, the decision
-        (:mod:`stalm.trial.step_log`)."""
-
-    def begin(self) -> StepRecord:
-        """A new real step: counted, and its record added to the log."""
-        self.trial.replans += 1
-        record = StepRecord(self.trial.done)
-        self.step_log.append(record)
-        return record
+    trial: Trial
+    settings: StalmSettings
+    policies: SearchPolicies
+    leaf_details: Callable[[], dict[str, Any]] = dict
+    """What the leaf value adds to the trial's details (Hcount: how its predicates came)."""
+    step_log: list[StepRecord] = field(default_factory=list)
 
     def decide(self) -> Decision:
-        """UCT's step: search from the current state, execute what the execution rule
-        chooses."""
-        record = self.begin()
-        if self.trial.out_of_time():
-            record.decision = "timeout"
-            return "timeout"
-        to_execute = self.search([], record)
-        record.executed = len(to_execute)
+        record = begin_step(self.trial, self.step_log)
+        if self.trial.episode.out_of_time():
+            return record.timed_out()
         # nothing feasible found (an empty plan): the loop asks again from the same state
-        return to_execute
+        return record.executes(search(self.trial, self.settings, self.policies, [], record))
 
     def details(self) -> dict[str, Any]:
-        return {
-            "proposer": None,
-            "settings": {
-                "reuse_tree": self.settings.reuse_tree,
-                "feedback": self.settings.feedback,
-                "execution": self.settings.execution,
-                "kappa_tries": self.settings.kappa_tries,
-                "backtracks": self.settings.backtracks,
-                "goal_atom_lost": self.settings.rewards.goal_atom_lost,
-            },
-            "proposals": 0,
-            "feedback_steps_learned": 0,
-            "reused_root_visits": self.trial.reused_root_visits,
-            "step_log": [record.to_json() for record in self.step_log],
-        }
+        return {**tree_details(self.trial, self.settings, self.step_log), **self.leaf_details()}
 
-    def share_end(self) -> float:
-        """When this step's share of the trial's remaining time runs out."""
-        now = time.monotonic()
-        return now + self.settings.step_share * max(0.0, self.trial.episode.deadline - now)
 
-    def search(self, plans: list[ConcretePlan], record: StepRecord) -> tuple[Action, ...]:
-        """The tree's goal plan if the search (warm-started with ``plans``) finds one, else
-        one root action chosen by the execution rule; ``record`` is told which, and how the
-        tree looks after the search."""
-        trial = self.trial
-        domain, state, done = trial.domain, trial.state, trial.done
-        search = trial.within_horizon(self.settings.search)
-        tree = trial.tree_at(state)
-        visits_before = tree.visits(state)
-        share_end = self.share_end()
+def begin_step(trial: Trial, step_log: list[StepRecord]) -> StepRecord:
+    """A new real step, counted; its record (:mod:`stalm.trial.step_log`) is added to
+    ``step_log`` and filled in by the parts of the step it is handed to."""
+    trial.replans += 1
+    record = StepRecord(trial.done)
+    step_log.append(record)
+    return record
 
-        searches = 0
 
-        def decided(how: str) -> None:
-            record.decision = how
-            record.searches = searches
-            record.tree = tree_record(tree, warm_edges(plans), visits_before)
-            log.info("step %d: %d search(es): %s", done, searches, DECISIONS.get(how, how))
+def tree_details(
+    trial: Trial, settings: StalmSettings, step_log: list[StepRecord]
+) -> dict[str, Any]:
+    """A tree planner's record for ``PlanResult.details`` (no proposer: STaLM's adds its own)."""
+    return {
+        "proposer": None,
+        "settings": {
+            "reuse_tree": settings.reuse_tree,
+            "feedback": settings.feedback,
+            "execution": settings.execution,
+            "kappa_tries": settings.kappa_tries,
+            "backtracks": settings.backtracks,
+            "goal_atom_lost": settings.rewards.goal_atom_lost,
+        },
+        "proposals": 0,
+        "feedback_steps_learned": 0,
+        "reused_root_visits": trial.reused_root_visits,
+        "step_log": [record.to_json() for record in step_log],
+    }
 
-        warm = plans
-        while True:
-            searches += 1
-            trial.say(f"step {done}: warm-started UCT, {search.budget} simulations")
-            with trial.phase("tree"):
-                result = warm_started_uct(
-                    domain,
-                    state,
-                    warm,
-                    trial.rng,
-                    settings=search,
-                    depth0=done,
-                    deadline=trial.episode.deadline,
-                    policies=self.policies,
-                    tree=tree,
-                )
-            trial.simulations += result.counters.simulations
-            if result.goal_plan:
-                decided("tree_goal")
-                return result.goal_plan
-            if result.best_action is None:
-                decided("nothing")
-                return ()
-            if self.settings.execution == "best_q":
-                decided("best_q")
-                return (result.best_action,)
-            promising = _best_promising_action(tree, domain)
-            if promising is not None:
-                decided("progress")
-                return (promising,)
-            if (
-                result.stop_reason == "deadline"
-                or searches >= self.settings.search_rounds
-                or time.monotonic() >= share_end
-                or search.budget == 0
-            ):
-                decided("best_q_fallback")
-                return (result.best_action,)
-            warm = []
+
+def search(
+    trial: Trial,
+    settings: StalmSettings,
+    policies: SearchPolicies,
+    plans: list[ConcretePlan],
+    record: StepRecord,
+) -> tuple[Action, ...]:
+    """WarmStartedUCT (Algorithms 3-5) from the current state, warm-started with ``plans``:
+    the tree's goal plan if a simulation finds one, else one root action chosen by the
+    execution rule; ``record`` is told which, and how the tree looks after the search."""
+    domain, state, done = trial.domain, trial.episode.state, trial.done
+    within = trial.within_horizon(settings.search)
+    tree = trial.tree_at(state)
+    visits_before = tree.visits(state)
+    step_end = trial.share_end(settings.step_share)
+    searches = 0
+
+    def decided(how: str) -> None:
+        record.decision = how
+        record.searches = searches
+        record.tree = tree_record(tree, warm_edges(plans), visits_before)
+        log.info("step %d: %d search(es): %s", done, searches, DECISIONS.get(how, how))
+
+    warm = plans
+    while True:
+        searches += 1
+        trial.say(f"step {done}: warm-started UCT, {within.budget} simulations")
+        with trial.phase("tree"):
+            result = warm_started_uct(
+                domain,
+                state,
+                warm,
+                trial.rng,
+                settings=within,
+                depth0=done,
+                deadline=trial.episode.deadline,
+                policies=policies,
+                tree=tree,
+            )
+        trial.simulations += result.counters.simulations
+        if result.goal_plan:
+            decided("tree_goal")
+            return result.goal_plan
+        if result.best_action is None:
+            decided("nothing")
+            return ()
+        if settings.execution == "best_q":
+            decided("best_q")
+            return (result.best_action,)
+        promising = _best_promising_action(tree, domain)
+        if promising is not None:
+            decided("progress")
+            return (promising,)
+        if (
+            result.stop_reason == "deadline"
+            or searches >= settings.search_rounds
+            or time.monotonic() >= step_end
+            or within.budget == 0
+        ):
+            decided("best_q_fallback")
+            return (result.best_action,)
+        warm = []
 
 
 def _best_promising_action(tree: SearchTree, domain: Domain) -> Action | None:

@@ -12,11 +12,8 @@ from __future__ import annotations
 from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
 from stalm.progress import Progress
 from stalm.search import SearchPolicies
-from stalm.settings.tree import DEFAULT_SIMS, RunSettings
+from stalm.settings.tree import RunSettings
 from stalm.trial.online import Sampling, Trial
-
-UCT_BUDGET = DEFAULT_SIMS["uct"]
-"""N_budget of the UCT baselines in the paper's §4.2."""
 
 
 class UctPlanner(TreePlanner):

@@ -9,9 +9,9 @@ brought forward from its parent).
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
+from typing import Any, cast
 
-from stalm.planners.tree_step import SearchStep, StalmSettings
+from stalm.planners.tree_step import SearchStep
 from stalm.planners.uct import UctPlanner
 from stalm.progress import Progress
 from stalm.search import SearchPolicies
@@ -28,28 +28,22 @@ class UctHcountPlanner(UctPlanner):
 
     def policies(self, trial: Trial) -> SearchPolicies:
         plain = super().policies(trial)
-        return replace(plain, value=HcountLeafValue(trial.problem, trial.memo))
+        return replace(plain, value=HcountLeafValue(trial.episode.problem, trial.memo))
 
     def start(self, trial: Trial) -> SearchStep:
-        return HcountStep(trial, self.settings, self.policies(trial))
+        policies = self.policies(trial)
+        leaves = cast(HcountLeafValue, policies.value)
+        return SearchStep(trial, self.settings, policies, lambda: hcount_details(leaves))
 
 
-class HcountStep(SearchStep):
-    """UCT's step, whose record also says how the leaves' predicates were made."""
-
-    def __init__(self, trial: Trial, settings: StalmSettings, policies: SearchPolicies) -> None:
-        super().__init__(trial, settings, policies)
-        assert isinstance(policies.value, HcountLeafValue)
-        self.leaf_value: HcountLeafValue = policies.value
-
-    def details(self) -> dict[str, Any]:
-        return {
-            **super().details(),
-            "hcount_leaves": {
-                "predicates_from_scratch": self.leaf_value.computed_from_scratch,
-                "predicates_brought_forward": self.leaf_value.brought_forward,
-            },
+def hcount_details(leaves: HcountLeafValue) -> dict[str, Any]:
+    """How the leaves' predicates were made, for the trial's details."""
+    return {
+        "hcount_leaves": {
+            "predicates_from_scratch": leaves.computed_from_scratch,
+            "predicates_brought_forward": leaves.brought_forward,
         }
+    }
 
 
 def build_uct_hcount(settings: RunSettings, progress: Progress | None) -> UctHcountPlanner:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import time
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -28,10 +29,10 @@ from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
 from stalm.domain.samplers import SamplerSettings
 from stalm.predicates.deadline import DeadlinePassed
-from stalm.predicates.engine import PredicateCache, PredicateEngine
+from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.memo import PredicateMemo
 from stalm.predicates.samples import PredicateSettings
-from stalm.progress import Progress, TrialObserver, observer_of
+from stalm.progress import Progress, observer_of
 from stalm.search import SearchSettings, SearchTree
 from stalm.settings.tree import RunSettings
 from stalm.trial.episode import Episode
@@ -65,7 +66,9 @@ class Sampling:
 
 @dataclass
 class Trial:
-    """One trial in progress, as a method's decisions see it (see the module docstring)."""
+    """One trial in progress, as a method's decisions see it: what the method adds (domain,
+    generator, tree, counts) to the :attr:`episode`, the one place to ask what the trial is
+    at (problem, state, predicates, deadline)."""
 
     domain: Domain
     episode: Episode
@@ -79,14 +82,6 @@ class Trial:
     replans: int = 0
     reused_root_visits: list[int] = field(default_factory=list)
     """Per real step whose tree was kept: the visits its root already had."""
-
-    @property
-    def problem(self) -> Problem:
-        return self.episode.problem
-
-    @property
-    def state(self) -> State:
-        return self.episode.state
 
     @property
     def memo(self) -> PredicateMemo:
@@ -104,30 +99,23 @@ class Trial:
         """``search`` looking no further than this trial's horizon (the problem's): a plan
         the tree finds is executed whole, so it must end within the steps the trial has
         left, whatever horizon the method's own settings carry."""
-        if search.horizon == self.problem.horizon:
-            return search
-        return dataclasses.replace(search, horizon=self.problem.horizon)
+        horizon = self.episode.problem.horizon
+        return search if search.horizon == horizon else dataclasses.replace(search, horizon=horizon)
 
-    @property
-    def observer(self) -> TrialObserver:
-        """Who watches the trial (the episode's: the same one the planner was given)."""
-        return self.episode.observer
+    def share_end(self, share: float) -> float:
+        """When a step starting now has spent ``share`` of the trial's remaining time."""
+        now = time.monotonic()
+        return now + share * max(0.0, self.episode.deadline - now)
 
     def say(self, message: str) -> None:
-        self.observer.message(message)
+        """Report progress to the trial's observer (``stalm solve`` prints it)."""
+        self.episode.observer.message(message)
 
     @contextmanager
     def phase(self, name: str | None) -> Iterator[None]:
         """Charge the block's wall time to phase ``name`` (see :meth:`PhaseClock.timed`)."""
         with self.episode.clock.timed(name):
             yield
-
-    def out_of_time(self) -> bool:
-        return self.episode.out_of_time()
-
-    def predicates(self) -> PredicateCache:
-        """The current state's predicates, from the trial's memo."""
-        return self.episode.predicates()
 
     def tree_at(self, state: State) -> SearchTree:
         """The tree rooted at ``state``: the one kept from the last step if it is rooted
@@ -186,11 +174,6 @@ class OnlinePlanner(ABC):
     def reuse_tree(self) -> bool:
         return False
 
-    def say(self, message: str) -> None:
-        """Report progress (``stalm solve`` prints it)."""
-        if self.progress is not None:
-            self.progress(message)
-
     @abstractmethod
     def start(self, trial: Trial) -> Decider:
         """The method's decisions for a trial that starts now."""
@@ -219,7 +202,7 @@ class OnlinePlanner(ABC):
                     reward_settings=self.rewards,
                 )
         except SceneAbandoned:
-            self.say("the deadline passed while the scene was built")
+            observer.message("the deadline passed while the scene was built")
             return episode.finish(None, self.name, seed, "timeout")
         try:
             with episode.clock.timed("setup"):
@@ -299,10 +282,10 @@ def run(trial: Trial, decider: Decider) -> str:
     A predicate computation the trial's deadline cut short (:exc:`DeadlinePassed`, raised
     from wherever a decision needed predicates) ends the trial as 'timeout'; what was
     executed before stays the trial's plan."""
-    horizon = trial.problem.horizon
+    horizon = trial.episode.problem.horizon
     try:
         while (termination := trial.episode.stop_reason(trial.domain)) is None:
-            trial.observer.step(trial.done, horizon)
+            trial.episode.observer.step(trial.done, horizon)
             decision = decider.decide()
             if isinstance(decision, str):
                 log.info("step %d of %d: %s", trial.done, horizon, decision)

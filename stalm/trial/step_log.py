@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from stalm.domain.outcome import Infeasibility
+from stalm.domain.params import Action
 from stalm.predicates.literals import GroundLiteral
 from stalm.search.concretize import ConcretePlan
 from stalm.search.failure_kinds import figure5_kind
@@ -64,6 +65,20 @@ class StepRecord:
     """Feedback rules refuted by what the tree's simulations grounded."""
     executed: int | None = None
     """Actions executed at the end of the step."""
+
+    def executes(
+        self, actions: tuple[Action, ...], decision: str | None = None
+    ) -> tuple[Action, ...]:
+        """The step ends executing ``actions``; ``decision``: why, unless already said."""
+        if decision is not None:
+            self.decision = decision
+        self.executed = len(actions)
+        return actions
+
+    def timed_out(self) -> str:
+        """The step ends the trial: its deadline passed."""
+        self.decision = "timeout"
+        return "timeout"
 
     def to_json(self) -> dict[str, Any]:
         """The entry as plain JSON; what a step did not reach is left out (``tree`` is kept

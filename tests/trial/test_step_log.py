@@ -8,6 +8,7 @@ import json
 
 import numpy as np
 
+from stalm.domain.actions import Open, Pick
 from stalm.planners.stalm import StalmPlanner
 from stalm.search import SearchSettings, SearchTree, concretize, warm_started_uct
 from stalm.trial.step_log import (
@@ -41,6 +42,20 @@ def test_a_step_record_keeps_what_the_step_reached_and_leaves_out_the_rest() -> 
     ]
     assert entry["rules_refuted_by_tree"] == 0 and entry["executed"] == 1
     assert json.loads(json.dumps(entry)) == entry
+
+
+def test_a_step_ends_by_executing_or_timing_out_and_says_so() -> None:
+    timed_out = StepRecord(step=1)
+    assert timed_out.timed_out() == "timeout"
+    assert timed_out.to_json() == {"step": 1, "proposals": [], "tree": None, "decision": "timeout"}
+    whole = StepRecord(step=0)
+    actions = (Pick("salter"), Open("kitchen_door"))
+    assert whole.executes(actions, "concretize_goal") is actions  # type: ignore[arg-type]
+    assert (whole.decision, whole.executed) == ("concretize_goal", 2)
+    searched = StepRecord(step=2)
+    searched.decision = "progress"  # said by the search that chose the action
+    assert searched.executes(()) == ()
+    assert (searched.decision, searched.executed) == ("progress", 0)
 
 
 def test_a_failed_plan_records_its_failed_step_kind_reason_and_the_warm_tree() -> None:
