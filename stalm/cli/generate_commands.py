@@ -44,7 +44,7 @@ def generate_command(
         int,
         typer.Option(
             help="Movable objects (one problem): at most what the layout holds (kitchen-hall "
-            "158, storeroom 358 with the default knobs; fewer with more goals or deeper "
+            "158, storeroom 346 with the default knobs; fewer with more goals or deeper "
             f"chains) and at most {MAX_OBJECTS}, and at least one per goal and occluder (with "
             "--trap one more; with 2 or more goals one reference object)."
         ),

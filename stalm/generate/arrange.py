@@ -106,6 +106,12 @@ class Knobs:
         return chains * (1 + self.occlusion_depth) + (1 if self.trap else 0) + self.relative
 
 
+def grid(region: dict[str, Any]) -> tuple[int, int]:
+    """Rows and columns of slots on ``region`` (none where its usable area is too small)."""
+    ux, uy = region.get("usable") or region["size"]
+    return max(0, int((ux - 2 * EDGE) // ROW) + 1), max(0, int((uy - 2 * EDGE) // COLUMN) + 1)
+
+
 @dataclass
 class Slots:
     """A region's free slots, ``(row, column) -> (u, v)``; row 0 is the back row."""
@@ -115,9 +121,8 @@ class Slots:
 
     @classmethod
     def of(cls, region: dict[str, Any]) -> Slots:
-        ux, uy = region.get("usable") or region["size"]
-        rows = int((ux - 2 * EDGE) // ROW) + 1
-        columns = int((uy - 2 * EDGE) // COLUMN) + 1
+        ux = (region.get("usable") or region["size"])[0]
+        rows, columns = grid(region)
         back = ux / 2 - EDGE
         left = (columns - 1) * COLUMN / 2
         return cls(
@@ -158,18 +163,26 @@ def clutter_only(region: dict[str, Any]) -> bool:
 
 
 def capacity(
-    regions: list[dict[str, Any]], knobs: Knobs, walled: str | None, grill_region: str | None
+    regions: list[dict[str, Any]],
+    knobs: Knobs,
+    walled: str | None,
+    grill_region: str | None,
+    *,
+    clear_fronts: bool = False,
 ) -> int:
     """The most objects :func:`arrange` always has room for on ``regions`` with ``knobs``,
     whichever regions and columns it draws: every slot, less the slots it keeps free at most
-    (each chain's two side columns; half of each goal region, the largest ones counted; three
-    per occluder put down; the walled counter and the grill's region whole), and the grill,
-    which takes no slot."""
+    (each chain's two side columns, and with ``clear_fronts`` its way in, three columns of the
+    deepest region; half of each goal region, the largest ones counted; three per occluder
+    put down; the walled counter and the grill's region whole), and the grill, which takes no
+    slot."""
     sizes = {r["name"]: len(Slots.of(r).free) for r in regions}
     chains = knobs.goals - (1 if knobs.trap else 0)
     apart = {walled, grill_region} if knobs.trap else set()
     held = sum(n for name, n in sizes.items() if name not in apart)
-    sides = 2 * (knobs.occlusion_depth + 1) * chains
+    deepest = max(grid(r)[0] for r in regions)
+    chain = knobs.occlusion_depth + 1
+    sides = (3 * deepest - chain if clear_fronts else 2 * chain) * chains
     halves = 0
     if not knobs.trap:
         goal_sizes = [sizes[r["name"]] for r in regions if not clutter_only(r)]
@@ -185,10 +198,15 @@ def arrange(
     door: str | None,
     walled: str | None = None,
     grill_start: tuple[str, tuple[float, float]] | None = None,
+    *,
+    clear_fronts: bool = False,
 ) -> Arrangement:
     """Objects, goal and task plan for ``knobs`` on ``regions`` (see the module docstring);
     ``walled`` is the trap's walled counter and ``grill_start`` the region and slot where the
-    grill starts, both needed with ``knobs.trap``."""
+    grill starts, both needed with ``knobs.trap``. With ``clear_fronts`` no clutter stands in
+    front of a chain either (its column and side columns stay free to the region's front), so
+    that in dense clutter the way in is as deep as the chain: the kitchen-hall's problems were
+    made without it and keep being made so, byte for byte."""
     slots = {r["name"]: Slots.of(r) for r in regions}
     rooms = {r["name"]: r["room"] for r in regions}
     objects: list[dict[str, Any]] = []
@@ -251,8 +269,13 @@ def arrange(
             )
             for r in range(1, knobs.occlusion_depth + 1)
         ]
-        for row in range(knobs.occlusion_depth + 1):  # the chain's sides stay clear: only
-            for side in (column - 1, column + 1):  # its own occluders stand in the way
+        # the chain's sides stay clear (with clear_fronts its way in too): only its own
+        # occluders stand in the way
+        rows = grid(slots[source].region)[0] if clear_fronts else knobs.occlusion_depth + 1
+        for row in range(rows):
+            for side in (
+                (column - 1, column, column + 1) if clear_fronts else (column - 1, column + 1)
+            ):
                 slots[source].free.pop((row, side), None)
         chain_steps: list[DiscreteAction] = []
         for occluder in reversed(occluders):  # the front one first; its region comes below

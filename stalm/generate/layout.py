@@ -22,7 +22,7 @@ taken as it is too: the seed varies the objects, not the scene.
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +42,10 @@ BUILT_IN = {"kitchen-hall": HERE / "kitchen_hall.yaml", "storeroom": HERE / "sto
 LAYOUTS = tuple(BUILT_IN)
 SHIFTED_ROOM = {"kitchen-hall": "hall"}
 """The built-in layouts whose free-standing tables a seed moves: the room they stand in."""
+CLUTTERED_FRONTS = frozenset({"kitchen-hall"})
+"""The layouts whose chains may have clutter in front of them (every problem and suite made
+with them so far was made so, and the same seed keeps making the same file); every other
+layout keeps each chain's way in clear (:func:`stalm.generate.arrange.arrange`)."""
 HALL_SHIFT = 0.6
 """Metres a hall table may move along its wall (x) and away from it (y), each way."""
 STATIC_FIELDS = ("robot", "walls", "regions", "doors")
@@ -75,6 +79,8 @@ class Layout:
     static: dict[str, Any]
     trap: dict[str, Any] | None
     shifted_room: str | None = None
+    clear_fronts: bool = True
+    """Does a chain's way in stay clear of clutter (see :data:`CLUTTERED_FRONTS`)?"""
 
     @property
     def walled(self) -> str | None:
@@ -110,7 +116,8 @@ class Layout:
         """The most movable objects this layout holds for ``knobs`` (see
         :func:`stalm.generate.arrange.capacity`)."""
         grill = self.grill_start[0] if knobs.trap and self.grill_start else None
-        return capacity(self.regions(trap=knobs.trap), knobs, self.walled, grill)
+        regions = self.regions(trap=knobs.trap)
+        return capacity(regions, knobs, self.walled, grill, clear_fronts=self.clear_fronts)
 
     def check_capacity(self, knobs: Knobs) -> None:
         """A StalmError naming the layout and what it holds when ``knobs.objects`` is more."""
@@ -126,7 +133,8 @@ class Layout:
 def load_layout(layout: str) -> Layout:
     """The built-in layout named ``layout``, or the layout file at that path."""
     if layout in BUILT_IN:
-        return read_layout(BUILT_IN[layout], layout, SHIFTED_ROOM.get(layout))
+        made = read_layout(BUILT_IN[layout], layout, SHIFTED_ROOM.get(layout))
+        return replace(made, clear_fronts=layout not in CLUTTERED_FRONTS)
     path = Path(layout)
     if path.suffix in (".yaml", ".yml") or path.exists():
         return read_layout(path, path.name)

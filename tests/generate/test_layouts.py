@@ -66,7 +66,7 @@ def test_a_layout_file_is_filled_and_the_same_seed_gives_the_same_file(
     layout = _write(tmp_path / "studio.yaml", STUDIO)
     outs = [tmp_path / "first.yaml", tmp_path / "again.yaml"]
     for out in outs:
-        args = ["--layout", str(layout), "--objects", "9", "--goals", "2", "--seed", "4"]
+        args = ["--layout", str(layout), "--objects", "9", "--goals", "1", "--seed", "4"]
         assert run_cli(monkeypatch, "generate", *args, "-o", str(out)) == 0
     first, again = (out.read_text(encoding="utf-8") for out in outs)
     assert first.replace("again", "first") == again.replace("again", "first")
@@ -74,16 +74,13 @@ def test_a_layout_file_is_filled_and_the_same_seed_gives_the_same_file(
     spec = problem.spec
     assert len(spec.objects) == 9 and spec.floor == ((-3.0, -3.0), (3.0, 3.0))
     assert [r.name for r in spec.regions] == ["table_south", "table_north"]
-    assert [r.base_pose for r in spec.regions] == [(1.0, -1.35, 1.570796), (1.0, 1.35, -1.570796)]
+    poses = [v for r in spec.regions for v in r.base_pose]
+    assert poses == pytest.approx([1.0, -1.35, 1.570796, 1.0, 1.35, -1.570796], abs=1e-4)
     assert [w.name for w in spec.walls] == [w["name"] for w in ROOM_WALLS]
     assert spec.doors == () and spec.robot.base == (-1.0, 0.0, 0.0)
     assert "layout studio.yaml, seed 4" in spec.description and spec.name == "first"
     assert run_cli(monkeypatch, "replay", str(witness_path(outs[0]))) == 0
     assert "the goal is reached" in capsys.readouterr().out
-    other = tmp_path / "other.yaml"
-    args = ["--layout", str(layout), "--objects", "9", "--goals", "2", "--seed", "5"]
-    assert run_cli(monkeypatch, "generate", *args, "-o", str(other)) == 0
-    assert other.read_text(encoding="utf-8").replace("other", "first") != first
 
 
 @pytest.mark.parametrize(
@@ -130,7 +127,7 @@ def test_a_bad_layout_is_an_error_naming_the_file(
     [
         (["--layout", "nowhere.yaml"], "nowhere.yaml: cannot read"),
         (["--layout", "castle"], "available: kitchen-hall, storeroom, or a layout file"),
-        (["--layout", "storeroom", "--objects", "400"], "layout storeroom holds at most 358"),
+        (["--layout", "storeroom", "--objects", "400"], "layout storeroom holds at most 346"),
         (["--objects", "121", "--goals", "3", "--occlusion-depth", "3"], "at most 107 objects"),
         (["--suite", "s", "--sizes", "8,160"], "layout kitchen-hall holds at most 158"),
     ],
@@ -190,10 +187,10 @@ def test_the_built_in_layouts_hold_what_the_help_and_the_docs_say(
 
 def test_the_storeroom_with_goals_behind_occluders() -> None:
     generated = generate_problem(
-        Knobs(objects=40, goals=3, occlusion_depth=2), 2, "store", layout="storeroom"
+        Knobs(objects=20, goals=3, occlusion_depth=2), 2, "store", layout="storeroom"
     )
     problem = generated.problem
-    assert len(problem.spec.objects) == 40
+    assert len(problem.spec.objects) == 20
     assert generated.witness.plan[0] == Open("store_door")
     rooms = {r.name: r.room for r in problem.spec.regions}
     assert set(rooms.values()) == {"store", "shop"}
@@ -201,9 +198,10 @@ def test_the_storeroom_with_goals_behind_occluders() -> None:
     assert len(picks) >= 3 + 3 * 2  # each goal object behind two occluders
 
 
-@pytest.mark.parametrize("name", ["kitchen-hall", "storeroom"])
-def test_the_trap_on_each_layout_that_has_one(name: str) -> None:
-    generated = generate_problem(Knobs(objects=48, goals=3, trap=True), 9002, "trap", layout=name)
+def _check_trap(name: str, objects: int, goals: int, seed: int) -> None:
+    generated = generate_problem(
+        Knobs(objects=objects, goals=goals, trap=True), seed, "trap", layout=name
+    )
     problem = generated.problem
     grill = next(o for o in problem.spec.objects if o.shape == "grill")
     assert grill.on == load_layout(name).grill_start[0]  # type: ignore[index]
@@ -213,7 +211,23 @@ def test_the_trap_on_each_layout_that_has_one(name: str) -> None:
     )
     assert {w.name for w in problem.spec.walls} >= {"walled_counter_wall_back"}
     report = replay_plan(problem, problem.initial_state, list(generated.witness.actions))
-    assert report.reached_goal
+    assert report.reached_goal and len(problem.spec.objects) == objects
+
+
+def test_the_trap_on_the_storeroom() -> None:
+    """(The kitchen-hall's small trap is tests/generate/test_generate.py's.)"""
+    assert all(load_layout(name).trap for name in LAYOUTS)
+    _check_trap("storeroom", 12, 2, 4)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("name", "objects", "goals", "seed"), [("kitchen-hall", 96, 3, 9002), ("storeroom", 256, 2, 1)]
+)
+def test_the_trap_in_a_full_layout(name: str, objects: int, goals: int, seed: int) -> None:
+    """Each layout with a trap, filled: the kitchen-hall case once reported as finding no
+    problem, and the storeroom with 256 objects."""
+    _check_trap(name, objects, goals, seed)
 
 
 @pytest.mark.slow
