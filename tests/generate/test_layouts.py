@@ -237,3 +237,23 @@ def test_the_storeroom_holds_250_objects(tmp_path: Path) -> None:
     out = tmp_path / "big.yaml"
     out.write_text(generated.text, encoding="utf-8")
     assert len(load_problem(out).spec.objects) == 250
+
+
+def test_a_trap_field_is_checked_as_the_rest_of_the_layout(tmp_path: Path) -> None:
+    walled = {**_table("walled_counter", 0.0, 0.0, 0.0), "center": [-1.5, 0.0]}
+    walled["base_pose"] = [-0.85, 0.0, 3.141593]
+    walled["yaw"] = 3.141593
+    trap = {"region": walled, "grill_on": "table_north", "grill_at": [-0.1, 0.0]}
+    added = load_layout(str(_write(tmp_path / "added.yaml", {**STUDIO, "trap": trap})))
+    assert [r["name"] for r in added.regions(trap=True)][-1] == "walled_counter"
+    assert [r["name"] for r in added.regions(trap=False)] == ["table_south", "table_north"]
+    assert added.grill_start == ("table_north", (-0.1, 0.0))
+    nowhere = {**trap, "grill_on": "attic"}
+    with pytest.raises(StalmError, match=r"trap\.grill_on: 'attic' is not a region"):
+        load_layout(str(_write(tmp_path / "attic.yaml", {**STUDIO, "trap": nowhere})))
+    (tmp_path / "list.yaml").write_text("- 1\n- 2\n", encoding="utf-8")
+    with pytest.raises(StalmError, match="a layout file must be a mapping"):
+        load_layout(str(tmp_path / "list.yaml"))
+    plain = tmp_path / "studio.layout"  # any existing file is read, whatever its name
+    plain.write_text(yaml.safe_dump(STUDIO), encoding="utf-8")
+    assert load_layout(str(plain)).name == "studio.layout"
