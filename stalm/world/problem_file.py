@@ -92,8 +92,12 @@ def _first_boolean(data: object, loc: tuple[object, ...] = ()) -> str | None:
     return found[0] + more
 
 
-def parse_problem(data: object, source: str = "<problem>") -> ProblemSpec:
-    """Validate already-loaded problem data; errors name ``source`` and the field."""
+def parse_problem(
+    data: object, source: str = "<problem>", spec: type[ProblemSpec] = ProblemSpec
+) -> ProblemSpec:
+    """Validate already-loaded problem data; errors name ``source`` and the field. ``spec``
+    may be a narrower or looser kind of problem (a generator's layout: one without objects)
+    validated by the same rules and reported the same way."""
     if not isinstance(data, dict):
         kind = "text" if isinstance(data, str) else type(data).__name__
         raise StalmError(f"{source}: a problem file must be a mapping of fields, got {kind}")
@@ -106,7 +110,7 @@ def parse_problem(data: object, source: str = "<problem>") -> ProblemSpec:
     if boolean is not None:
         raise StalmError(f"{source}: {boolean}")
     try:
-        return ProblemSpec.model_validate(data)
+        return spec.model_validate(data)
     except ValidationError as error:
         raise StalmError(format_validation_error(source, error)) from None
 
