@@ -48,7 +48,7 @@ from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
 from stalm.search.search_mdp import SearchMDP
 from stalm.search.tree import Edge, SearchTree
 from stalm.settings.tree import DEFAULT_SIMS, RunSettings
-from stalm.trial.online import ConfiguredPlanner, Decision, Sampling, Trial
+from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import state_request_seed
 from stalm.world.problem import Problem
 from stalm.world.state import State
@@ -278,7 +278,7 @@ class LlmMctsSettings:
     def of(cls, settings: RunSettings) -> LlmMctsSettings:
         search = settings.search
         return cls(
-            search=search.search_settings(search.budget_for(LlmMctsPlanner.name)),
+            search=search.search_settings(search.budget_for("llm-mcts")),
             samples=search.batch,
             occlusion_predicates=settings.prompt.occlusion_predicates,
             reuse_tree=settings.execution.reuse_tree,
@@ -286,35 +286,45 @@ class LlmMctsSettings:
         )
 
 
-class LlmMctsPlanner(ConfiguredPlanner):
+@dataclass(frozen=True)
+class LlmMcts:
+    """LLM-MCTS's part of a planner: the proposer its prior asks, what it reads of the
+    settings tree, where its prior reports progress; called at a trial's start, its steps."""
+
+    proposer: TaskPlanProposer
+    settings: LlmMctsSettings
+    progress: Progress | None = None
+
+    def __call__(self, trial: Trial) -> LlmMctsSteps:
+        return LlmMctsSteps(self, trial)
+
+
+def LlmMctsPlanner(
+    proposer: TaskPlanProposer,
+    settings: RunSettings | None = None,
+    progress: Progress | None = None,
+) -> OnlinePlanner:
     """LLM-MCTS run online: search from the current state, execute, repeat. ``settings`` is
     the run's settings tree (None: :class:`RunSettings`' defaults, which ``stalm solve
-    --planner llm-mcts`` runs); ``settings`` on the planner is what it reads of it."""
-
-    name = "llm-mcts"
-    settings: LlmMctsSettings
-
-    def __init__(
-        self,
-        proposer: TaskPlanProposer,
-        settings: RunSettings | None = None,
-        progress: Progress | None = None,
-    ) -> None:
-        run_settings = settings or RunSettings()
-        self.proposer = proposer
-        self.settings = LlmMctsSettings.of(run_settings)
-        self.sampling = Sampling.of(run_settings)
-        self.progress = progress
-
-    def start(self, trial: Trial) -> LlmMctsSteps:
-        return LlmMctsSteps(self, trial)
+    --planner llm-mcts`` runs); its part reads :class:`LlmMctsSettings` of it."""
+    run_settings = settings or RunSettings()
+    view = LlmMctsSettings.of(run_settings)
+    return OnlinePlanner(
+        "llm-mcts",
+        run_settings,
+        LlmMcts(proposer, view, progress),
+        progress,
+        rewards=view.rewards,
+        occlusion=view.occlusion_predicates,
+        reuse_tree=view.reuse_tree,
+    )
 
 
 class LlmMctsSteps:
     """One trial's real steps: MCTS with the LLM prior from the current state, then execute
     its goal plan or its best root action."""
 
-    def __init__(self, planner: LlmMctsPlanner, trial: Trial) -> None:
+    def __init__(self, planner: LlmMcts, trial: Trial) -> None:
         self.planner = planner
         self.trial = trial
         settings = planner.settings
@@ -380,7 +390,7 @@ class LlmMctsSteps:
         return details
 
 
-def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> LlmMctsPlanner:
+def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
     """The registry's builder: the configured (cached) backend, the paper's prompt and budget,
     N_batch replies per prior, tree reuse as the other tree planners have it."""
     backend = llm_backend(settings)

@@ -50,27 +50,35 @@ class PlannerEntry:
 # Each builder imports its planner's module only when a planner is built (see the module
 # docstring); the modules import nothing back from here.
 def _stalm(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.stalm import build_stalm
+    from stalm.planners.stalm import StalmPlanner, proposer_for
 
-    return build_stalm(settings, progress)
+    return StalmPlanner(proposer_for(settings), settings, progress)
 
 
 def _stalm_no_uct(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.stalm_no_uct import build_stalm_no_uct
+    """STaLM's step whose no-goal-plan part is the best plan's first action: the ablation is
+    its own row (not a flag of STaLM's settings), so a planner's name is what it is."""
+    from stalm.planners.stalm import StalmPlanner, best_prefix_first_action, proposer_for
 
-    return build_stalm_no_uct(settings, progress)
+    return StalmPlanner(
+        proposer_for(settings),
+        settings,
+        progress,
+        name="stalm-no-uct",
+        no_goal_plan=best_prefix_first_action,
+    )
 
 
 def _uct(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.uct import build_uct
+    from stalm.planners.uct import uct_planner
 
-    return build_uct(settings, progress)
+    return uct_planner("uct", settings, progress, hcount=False)
 
 
 def _uct_hcount(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.uct_hcount import build_uct_hcount
+    from stalm.planners.uct import uct_planner
 
-    return build_uct_hcount(settings, progress)
+    return uct_planner("uct-hcount", settings, progress, hcount=True)
 
 
 def _ep_saycan(settings: RunSettings, progress: Progress | None) -> Planner:

@@ -44,7 +44,7 @@ from stalm.proposers.model_backend import llm_backend, use_constraint
 from stalm.search.puct import vote_prior
 from stalm.settings.tree import RunSettings
 from stalm.trial.episode import Episode
-from stalm.trial.online import Decision, OnlinePlanner, Sampling, Trial
+from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import query_seed
 from stalm.world.state import State
 
@@ -171,30 +171,16 @@ class SayCanSettings:
         return cls(n_batch=settings.search.batch, kappa_tries=settings.execution.kappa_tries)
 
 
-class EpSayCanPlanner(OnlinePlanner):
-    """SayCan with the empirical LLM policy and precondition-and-occlusion affordance.
+@dataclass(frozen=True)
+class SayCan:
+    """EP-SayCan's part of a planner: the model, whether its replies are constrained, what it
+    reads of the settings tree; called at a trial's start, its steps (:class:`SayCanSteps`)."""
 
-    ``settings`` is the run's settings tree (None: :class:`RunSettings`' defaults, which
-    ``stalm solve --planner ep-saycan`` runs); ``settings`` on the planner is what it reads
-    of it (:class:`SayCanSettings`), and whether replies are constrained is the tree's
-    ``llm.constrained`` (None: for the embedded model only)."""
+    backend: LLMBackend
+    constrained: bool
+    settings: SayCanSettings
 
-    name = "ep-saycan"
-
-    def __init__(
-        self,
-        backend: LLMBackend,
-        settings: RunSettings | None = None,
-        progress: Progress | None = None,
-    ) -> None:
-        run_settings = settings or RunSettings()
-        self.backend = backend
-        self.constrained: bool = use_constraint(run_settings, backend)
-        self.settings = SayCanSettings.of(run_settings)
-        self.sampling = Sampling.of(run_settings)
-        self.progress = progress
-
-    def start(self, trial: Trial) -> SayCanSteps:
+    def __call__(self, trial: Trial) -> SayCanSteps:
         return SayCanSteps(self, trial)
 
     def decide(
@@ -268,10 +254,10 @@ class EpSayCanPlanner(OnlinePlanner):
 
 @dataclass
 class SayCanSteps:
-    """One trial's decisions: the current state's predicates, then :meth:`EpSayCanPlanner.
-    decide`; no affordable action with a feasible κ ends the trial."""
+    """One trial's decisions: the current state's predicates, then :meth:`SayCan.decide`;
+    no affordable action with a feasible κ ends the trial."""
 
-    planner: EpSayCanPlanner
+    planner: SayCan
     trial: Trial
     tally: DecisionTally = field(default_factory=DecisionTally)
     step: int = 0
@@ -328,6 +314,21 @@ def _decision(
     }
 
 
-def build_ep_saycan(settings: RunSettings, progress: Progress | None) -> EpSayCanPlanner:
+def EpSayCanPlanner(
+    backend: LLMBackend, settings: RunSettings | None = None, progress: Progress | None = None
+) -> OnlinePlanner:
+    """SayCan with the empirical LLM policy and precondition-and-occlusion affordance.
+
+    ``settings`` is the run's settings tree (None: :class:`RunSettings`' defaults, which
+    ``stalm solve --planner ep-saycan`` runs); its part reads :class:`SayCanSettings` of it,
+    and whether replies are constrained is the tree's ``llm.constrained`` (None: for the
+    embedded model only). R's constants are the domain's own and predicates include the
+    occlusion literals (the affordance reads them)."""
+    run_settings = settings or RunSettings()
+    method = SayCan(backend, use_constraint(run_settings, backend), SayCanSettings.of(run_settings))
+    return OnlinePlanner("ep-saycan", run_settings, method, progress)
+
+
+def build_ep_saycan(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
     """The registry's builder: the configured (cached) backend, N_batch and κ tries."""
     return EpSayCanPlanner(llm_backend(settings), settings, progress)

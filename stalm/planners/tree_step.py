@@ -26,9 +26,10 @@ from typing import Any, cast
 
 from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
+from stalm.progress import Progress
 from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
 from stalm.settings.tree import ExecutionRule, RunSettings
-from stalm.trial.online import ConfiguredPlanner, Decision, Trial
+from stalm.trial.online import Decision, OnlinePlanner, StartSteps, Trial
 from stalm.trial.step_log import DECISIONS, StepRecord, tree_record, warm_edges
 from stalm.world.state import State
 
@@ -70,15 +71,17 @@ class StalmSettings:
     or for Hcount (always on for UCT-with-Hcount)."""
 
     @classmethod
-    def of(cls, settings: RunSettings, planner: str, *, proposes: bool) -> StalmSettings:
-        """The settings tree planner ``planner`` reads from ``settings`` (a planner that
-        ``proposes`` no task plans -- UCT -- gets no feedback; UCT-with-Hcount always
-        computes the occlusion predicates its heuristic reads)."""
+    def of(
+        cls, settings: RunSettings, budget: int, *, proposes: bool, leaf_occlusion: bool = False
+    ) -> StalmSettings:
+        """What a tree planner with N_budget ``budget`` reads from ``settings`` (a planner that
+        ``proposes`` no task plans -- UCT -- gets no feedback; one whose leaf value reads the
+        occlusion predicates -- Hcount -- always computes them)."""
         feedback = settings.feedback()
         execution = settings.execution
         return cls(
             n_batch=settings.search.batch,
-            search=settings.search.search_settings(settings.search.budget_for(planner)),
+            search=settings.search.search_settings(budget),
             reuse_tree=execution.reuse_tree,
             feedback=feedback and proposes,
             feedback_rounds=execution.feedback_rounds,
@@ -92,18 +95,31 @@ class StalmSettings:
             # the noisy one needs them to drop the step that clears an occluder, and Hcount
             # reads them at every leaf
             occlusion_predicates=(
-                planner == "uct-hcount"
+                leaf_occlusion
                 or settings.proposer.kind != "llm"
                 or settings.prompt.occlusion_predicates
             ),
         )
 
 
-class TreePlanner(ConfiguredPlanner):
-    """An online planner configured by :class:`StalmSettings` (STaLM, UCT and their
-    variants): R's constants, the occlusion predicates and tree reuse come from there."""
-
-    settings: StalmSettings
+def tree_planner(
+    name: str,
+    settings: RunSettings,
+    view: StalmSettings,
+    start: StartSteps,
+    progress: Progress | None,
+) -> OnlinePlanner:
+    """The online loop around a tree planner's steps: R's constants, the occlusion predicates
+    and tree reuse are ``view``'s."""
+    return OnlinePlanner(
+        name,
+        settings,
+        start,
+        progress,
+        rewards=view.rewards,
+        occlusion=view.occlusion_predicates,
+        reuse_tree=view.reuse_tree,
+    )
 
 
 @dataclass
