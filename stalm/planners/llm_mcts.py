@@ -47,7 +47,7 @@ from stalm.search.policies import ValueFunction
 from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
 from stalm.search.search_mdp import SearchMDP
 from stalm.search.tree import Edge, SearchTree
-from stalm.settings.tree import DEFAULT_SIMS, RunSettings
+from stalm.settings.tree import RunSettings
 from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import state_request_seed
 from stalm.world.problem import Problem
@@ -56,8 +56,9 @@ from stalm.world.state import State
 LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
 QueryHook = Callable[[Proposal], None]
 
-LLM_MCTS_BUDGET = DEFAULT_SIMS["llm-mcts"]
-"""N_budget of LLM-MCTS in the paper's §4.2."""
+LLM_MCTS_BUDGET = 35
+"""N_budget of LLM-MCTS in the paper's §4.2, when ``search.sims`` is None (the registry's
+row says the same for a record)."""
 
 
 @dataclass(frozen=True)
@@ -278,7 +279,7 @@ class LlmMctsSettings:
     def of(cls, settings: RunSettings) -> LlmMctsSettings:
         search = settings.search
         return cls(
-            search=search.search_settings(search.budget_for("llm-mcts")),
+            search=search.search_settings(LLM_MCTS_BUDGET if search.sims is None else search.sims),
             samples=search.batch,
             occlusion_predicates=settings.prompt.occlusion_predicates,
             reuse_tree=settings.execution.reuse_tree,

@@ -45,6 +45,15 @@ class PlannerEntry:
     description: str
     uses_llm: bool
     build: Builder
+    sims: int | None = None
+    """N_budget when ``search.sims`` is None: STaLM's 30 (Appendix B), the baselines' 35
+    (§4.2); None: the planner runs no tree search."""
+
+    def settings_for(self, settings: RunSettings) -> RunSettings:
+        """``settings`` as this row runs them: its N_budget where ``search.sims`` is None."""
+        if self.sims is None or settings.search.sims is not None:
+            return settings
+        return replace(settings, search=replace(settings.search, sims=self.sims))
 
 
 # Each builder imports its planner's module only when a planner is built (see the module
@@ -111,24 +120,28 @@ _ENTRIES: tuple[PlannerEntry, ...] = (
         "STaLM: task plans from the proposer, Concretize, warm-started hybrid UCT (N_budget 30)",
         True,
         _stalm,
+        sims=30,
     ),
     PlannerEntry(
         "stalm-no-uct",
         "STaLM without UCT (Table 3): Concretize only, then the next action of the best plan",
         True,
         _stalm_no_uct,
+        sims=30,
     ),
     PlannerEntry(
         "uct",
         "Hybrid UCT with random rollouts and no guidance (N_budget 35)",
         False,
         _uct,
+        sims=35,
     ),
     PlannerEntry(
         "uct-hcount",
         "UCT whose leaf value is Appendix C's Hcount heuristic (N_budget 35)",
         False,
         _uct_hcount,
+        sims=35,
     ),
     PlannerEntry(
         "ep-saycan",
@@ -150,6 +163,7 @@ _ENTRIES: tuple[PlannerEntry, ...] = (
         "(N_budget 35)",
         True,
         _llm_mcts,
+        sims=35,
     ),
     PlannerEntry(
         "pddlstream-adaptive",
@@ -185,7 +199,7 @@ def resolve(name: str, settings: RunSettings, problem: Problem | None = None) ->
     (:meth:`RunSettings.resolved`), and for a planner that asks a model, the backend
     ($STALM_LLM when none is named) and whether its replies are constrained. This is what a
     record keeps, so the run can be repeated from it on another machine."""
-    resolved = settings.resolved(planner_entry(name).name, problem)
+    resolved = planner_entry(name).settings_for(settings).resolved(problem)
     llm = resolved.llm
     if not asks_model(name, resolved):
         return resolved
@@ -212,4 +226,5 @@ def build_planner(
     progress: Progress | None = None,
 ) -> Planner:
     """The planner ``name`` configured by ``config`` (defaults: the paper's settings)."""
-    return planner_entry(name).build(config or RunSettings(), progress)
+    entry = planner_entry(name)
+    return entry.build(entry.settings_for(config or RunSettings()), progress)

@@ -53,6 +53,10 @@ __all__ = ["StalmPlanner", "StalmSettings", "StalmStep", "StalmSteps"]
 log = logging.getLogger(__name__)
 """Each proposal round's plans and what Concretize made of them, at INFO."""
 
+N_BUDGET = 30
+"""STaLM's simulations per real step (Appendix B) when ``search.sims`` is None (the
+registry's row says the same for a record)."""
+
 NoGoalPlan = Callable[["StalmStep", list[ConcretePlan], StepRecord], tuple[Action, ...]]
 """What a step executes when no task plan reached the goal (STaLM: :func:`warm_started_search`;
 STaLM w/o UCT: the best plan's first action); it says why in the step's record."""
@@ -313,7 +317,8 @@ def StalmPlanner(
     The registry builds STaLM w/o UCT with its ``name`` and :func:`best_prefix_first_action`.
     """
     run_settings = with_proposer_kind(settings or RunSettings(), proposer)
-    budget = run_settings.search.budget_for(name)
+    sims = run_settings.search.sims
+    budget = N_BUDGET if sims is None else sims
     view = StalmSettings.of(run_settings, budget, proposes=True)
     steps = StalmSteps(proposer, view, no_goal_plan)
     return tree_planner(name, run_settings, view, steps, progress)

@@ -22,6 +22,10 @@ from stalm.search.hcount import HcountLeafValue
 from stalm.settings.tree import RunSettings
 from stalm.trial.online import OnlinePlanner, Trial
 
+N_BUDGET = 35
+"""The baselines' simulations per real step (§4.2) when ``search.sims`` is None (the
+registry's rows say the same for a record)."""
+
 
 @dataclass(frozen=True)
 class UctSteps:
@@ -56,6 +60,7 @@ def uct_planner(
     """UCT run online (the 'uct' row; with ``hcount``, the 'uct-hcount' row) configured by a
     run's settings tree; of it, the proposer's part (N_batch, feedback, κ tries, backtracks)
     does not apply."""
-    budget = settings.search.budget_for(name)
+    sims = settings.search.sims
+    budget = N_BUDGET if sims is None else sims
     view = StalmSettings.of(settings, budget, proposes=False, leaf_occlusion=hcount)
     return tree_planner(name, settings, view, UctSteps(view, hcount), progress)

@@ -13,7 +13,7 @@ import pytest
 from stalm.planners.iterative_replanning import IterativeReplanningPlanner, ReplanningSettings
 from stalm.planners.llm_mcts import LlmMctsPlanner, LlmMctsSettings
 from stalm.planners.pddlstream import AdaptiveSettings
-from stalm.planners.registry import build_planner, resolve
+from stalm.planners.registry import build_planner, planners, resolve
 from stalm.planners.saycan import EpSayCanPlanner, SayCanSettings
 from stalm.planners.stalm import StalmPlanner, StalmSettings, StalmSteps, proposer_kind
 from stalm.planners.uct import UctSteps, uct_planner
@@ -146,3 +146,30 @@ def test_stalm_with_the_symbolic_proposer_and_no_settings_runs_what_stalm_solve_
     assert by_hand.success and cli.success
     assert [a.discrete for a in by_hand.plan] == [a.discrete for a in cli.plan]
     assert_matches(plain(list(by_hand.plan)), plain(list(cli.plan)), tolerance=1e-6)
+
+
+def test_each_planners_default_budget_is_its_registry_rows_and_the_settings_name_none() -> None:
+    """N_budget when ``search.sims`` is None is a row of the registry (STaLM's 30, the
+    baselines' 35), what the built planner searches with and what a record keeps; the
+    settings code names no planner."""
+    rows = {name: entry.sims for name, entry in planners().items()}
+    assert rows == {
+        "stalm": 30,
+        "stalm-no-uct": 30,
+        "uct": 35,
+        "uct-hcount": 35,
+        "ep-saycan": None,
+        "iterative-replanning": None,
+        "llm-mcts": 35,
+        "pddlstream-adaptive": None,
+    }
+    tree = _tree(("llm.backend", "http://127.0.0.1:9/v1#m"))
+    for name, sims in rows.items():
+        assert resolve(name, tree).search.sims == sims, name
+        if sims is not None:
+            method = build_planner(name, tree).start
+            assert method.settings.search.budget == sims, name  # type: ignore[attr-defined]
+    by_hand = StalmPlanner(SymbolicProposer()).start
+    assert isinstance(by_hand, StalmSteps) and by_hand.settings.search.budget == rows["stalm"]
+    settings_code = (STALM / "settings" / "tree.py").read_text(encoding="utf-8")
+    assert not re.search(r'"(stalm|uct|uct-hcount|llm-mcts)"', settings_code)
