@@ -35,7 +35,6 @@ from typing import Any
 import numpy as np
 
 from stalm.domain.actions import DiscreteAction
-from stalm.domain.mdp import RewardSettings
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.progress import Progress
@@ -263,15 +262,6 @@ class LlmMctsSettings:
     """The search's constants with LLM-MCTS's N_budget (``search``)."""
     samples: int
     """Replies per prior (``search.batch``)."""
-    occlusion_predicates: bool
-    """Compute occlusion literals for the prompt (False when the prompt does not show them)."""
-    reuse_tree: bool
-    """Keep the executed child's subtree, and its nodes' priors, as the next step's tree
-    (the authors' loop, through the online base as every online tree planner does; the
-    settings tree's ``execution.reuse_tree``). Off: a new tree every real step whose nodes
-    ask the model anew."""
-    rewards: RewardSettings
-    """R's constants (the settings tree's ``rewards``)."""
     uniform_weight: float = 0.5
     """Weight of the uniform distribution mixed into the votes (the authors' 0.5)."""
 
@@ -281,9 +271,6 @@ class LlmMctsSettings:
         return cls(
             search=search.search_settings(LLM_MCTS_BUDGET if search.sims is None else search.sims),
             samples=search.batch,
-            occlusion_predicates=settings.prompt.occlusion_predicates,
-            reuse_tree=settings.execution.reuse_tree,
-            rewards=settings.rewards,
         )
 
 
@@ -307,7 +294,11 @@ def LlmMctsPlanner(
 ) -> OnlinePlanner:
     """LLM-MCTS run online: search from the current state, execute, repeat. ``settings`` is
     the run's settings tree (None: :class:`RunSettings`' defaults, which ``stalm solve
-    --planner llm-mcts`` runs); its part reads :class:`LlmMctsSettings` of it."""
+    --planner llm-mcts`` runs); its part reads :class:`LlmMctsSettings` of it. The trial
+    computes the occlusion literals only for a prompt that shows them, and keeps the executed
+    child's subtree, with its nodes' priors, as the next step's tree with
+    ``execution.reuse_tree`` (the authors' loop, as for every online tree planner; off: a new
+    tree every real step whose nodes ask the model anew)."""
     run_settings = settings or RunSettings()
     view = LlmMctsSettings.of(run_settings)
     return OnlinePlanner(
@@ -315,9 +306,9 @@ def LlmMctsPlanner(
         run_settings,
         LlmMcts(proposer, view, progress),
         progress,
-        rewards=view.rewards,
-        occlusion=view.occlusion_predicates,
-        reuse_tree=view.reuse_tree,
+        rewards=run_settings.rewards,
+        occlusion=run_settings.prompt.occlusion_predicates,
+        reuse_tree=run_settings.execution.reuse_tree,
     )
 
 

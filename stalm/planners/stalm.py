@@ -321,7 +321,7 @@ def StalmPlanner(
     budget = N_BUDGET if sims is None else sims
     view = StalmSettings.of(run_settings, budget, proposes=True)
     steps = StalmSteps(proposer, view, no_goal_plan)
-    return tree_planner(name, run_settings, view, steps, progress)
+    return tree_planner(name, run_settings, steps, progress)
 
 
 def proposer_kind(proposer: TaskPlanProposer) -> ProposerKind:

@@ -24,7 +24,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, cast
 
-from stalm.domain.mdp import Domain, RewardSettings
+from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
 from stalm.progress import Progress
 from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
@@ -47,8 +47,6 @@ class StalmSettings:
     """N_batch (``search.batch``)."""
     search: SearchSettings
     """The search's constants with this planner's N_budget (``search``)."""
-    reuse_tree: bool
-    """``execution.reuse_tree``."""
     feedback: bool
     """Geometric feedback (``execution.feedback``, resolved; never for UCT)."""
     feedback_rounds: int
@@ -63,26 +61,16 @@ class StalmSettings:
     """``execution.kappa_tries``."""
     backtracks: int
     """``execution.backtracks``, resolved."""
-    rewards: RewardSettings
-    """R's constants (``rewards``)."""
-    occlusion_predicates: bool
-    """Compute PickOccludedBy/PlaceOccludedBy: for the prompt (False for Table 4's arms whose
-    prompt does not show them, so those arms do not pay for motion planning they never use)
-    or for Hcount (always on for UCT-with-Hcount)."""
 
     @classmethod
-    def of(
-        cls, settings: RunSettings, budget: int, *, proposes: bool, leaf_occlusion: bool = False
-    ) -> StalmSettings:
+    def of(cls, settings: RunSettings, budget: int, *, proposes: bool) -> StalmSettings:
         """What a tree planner with N_budget ``budget`` reads from ``settings`` (a planner that
-        ``proposes`` no task plans -- UCT -- gets no feedback; one whose leaf value reads the
-        occlusion predicates -- Hcount -- always computes them)."""
+        ``proposes`` no task plans -- UCT -- gets no feedback)."""
         feedback = settings.feedback()
         execution = settings.execution
         return cls(
             n_batch=settings.search.batch,
             search=settings.search.search_settings(budget),
-            reuse_tree=execution.reuse_tree,
             feedback=feedback and proposes,
             feedback_rounds=execution.feedback_rounds,
             search_rounds=execution.search_rounds,
@@ -90,35 +78,35 @@ class StalmSettings:
             execution=execution.rule,
             kappa_tries=execution.kappa_tries,
             backtracks=execution.backtracks_for(feedback),
-            rewards=settings.rewards,
-            # the symbolic proposer plans with occlusions whatever the prompt options say,
-            # the noisy one needs them to drop the step that clears an occluder, and Hcount
-            # reads them at every leaf
-            occlusion_predicates=(
-                leaf_occlusion
-                or settings.proposer.kind != "llm"
-                or settings.prompt.occlusion_predicates
-            ),
         )
 
 
 def tree_planner(
     name: str,
     settings: RunSettings,
-    view: StalmSettings,
     start: StartSteps,
     progress: Progress | None,
+    *,
+    leaf_occlusion: bool = False,
 ) -> OnlinePlanner:
-    """The online loop around a tree planner's steps: R's constants, the occlusion predicates
-    and tree reuse are ``view``'s."""
+    """The online loop around a tree planner's steps, with the tree's R and tree reuse. The
+    trial computes PickOccludedBy/PlaceOccludedBy for the prompt (not for Table 4's arms whose
+    prompt does not show them, so those arms do not pay for motion planning they never use),
+    for the symbolic proposer (which plans with occlusions whatever the prompt options say),
+    for the noisy one (which needs them to drop the step that clears an occluder) and for a
+    leaf value that reads them (``leaf_occlusion``: Hcount)."""
     return OnlinePlanner(
         name,
         settings,
         start,
         progress,
-        rewards=view.rewards,
-        occlusion=view.occlusion_predicates,
-        reuse_tree=view.reuse_tree,
+        rewards=settings.rewards,
+        occlusion=(
+            leaf_occlusion
+            or settings.proposer.kind != "llm"
+            or settings.prompt.occlusion_predicates
+        ),
+        reuse_tree=settings.execution.reuse_tree,
     )
 
 
@@ -161,12 +149,12 @@ def tree_details(
     return {
         "proposer": None,
         "settings": {
-            "reuse_tree": settings.reuse_tree,
+            "reuse_tree": trial.reuse_tree,
             "feedback": settings.feedback,
             "execution": settings.execution,
             "kappa_tries": settings.kappa_tries,
             "backtracks": settings.backtracks,
-            "goal_atom_lost": settings.rewards.goal_atom_lost,
+            "goal_atom_lost": trial.domain.reward_settings.goal_atom_lost,
         },
         "proposals": 0,
         "feedback_steps_learned": 0,

@@ -62,5 +62,5 @@ def uct_planner(
     does not apply."""
     sims = settings.search.sims
     budget = N_BUDGET if sims is None else sims
-    view = StalmSettings.of(settings, budget, proposes=False, leaf_occlusion=hcount)
-    return tree_planner(name, settings, view, UctSteps(view, hcount), progress)
+    view = StalmSettings.of(settings, budget, proposes=False)
+    return tree_planner(name, settings, UctSteps(view, hcount), progress, leaf_occlusion=hcount)

@@ -20,7 +20,6 @@ from stalm.llm.prompt import PromptOptions
 from stalm.planners.llm_mcts import (
     LlmMcts,
     LlmMctsPlanner,
-    LlmMctsSettings,
     LLMPrior,
     build_llm_mcts,
     llm_mcts_policies,
@@ -254,7 +253,7 @@ def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
     custom = build_llm_mcts(settings_of(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3), None)
     assert isinstance(custom.start, LlmMcts)
     assert custom.start.settings.search.budget == 7 and custom.start.settings.samples == 3
-    assert planner.occlusion and method.settings.occlusion_predicates
+    assert planner.occlusion
     no_occlusion = settings_of(llm="http://127.0.0.1:9/v1#m", prompt__occlusion_predicates=False)
     assert not build_llm_mcts(no_occlusion, None).occlusion
 
@@ -263,7 +262,6 @@ def test_llm_mcts_reuses_the_tree_by_the_one_setting_of_every_tree_planner() -> 
     """Tree reuse (issue 13) is on for LLM-MCTS as for STaLM and UCT, and the same setting
     (execution.reuse_tree, --set reuse_tree=false) switches it off for all of them."""
     model = settings_of(llm="http://127.0.0.1:9/v1#m")
-    assert LlmMctsSettings.of(RunSettings()).reuse_tree
     for name in ("llm-mcts", "stalm", "uct", "uct-hcount"):
         assert build_planner(name, model).reuse_tree, name
         off = settings_of(llm="http://127.0.0.1:9/v1#m", reuse_tree=False)

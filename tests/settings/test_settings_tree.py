@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 import yaml
 
-from stalm.domain.mdp import RewardSettings
 from stalm.errors import StalmError
 from stalm.planners.registry import build_planner, resolve
 from stalm.planners.stalm import StalmSettings
@@ -64,7 +63,6 @@ def test_the_default_tree_builds_the_tree_planners_as_before() -> None:
         before = StalmSettings(
             n_batch=5,
             search=SearchSettings(budget=budget),
-            reuse_tree=True,
             feedback=False,
             feedback_rounds=8,
             search_rounds=10,
@@ -72,8 +70,6 @@ def test_the_default_tree_builds_the_tree_planners_as_before() -> None:
             execution="progress",
             kappa_tries=3,
             backtracks=0,
-            rewards=RewardSettings(goal_atom_lost=3.0),
-            occlusion_predicates=True,
         )
         assert StalmSettings.of(settings, budget, proposes=planner == "stalm") == before
     symbolic = StalmSettings.of(
