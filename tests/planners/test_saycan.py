@@ -176,7 +176,7 @@ def test_votes_only_asks_again_then_ends_as_no_progress(problems) -> None:
     # votes only: a constant of the method's own, which the settings tree does not hold
     saycan = planner.start
     assert isinstance(saycan, SayCan)
-    votes_only = replace(saycan, settings=replace(saycan.settings, uniform_weight=0.0))
+    votes_only = replace(saycan, constants=replace(saycan.constants, uniform_weight=0.0))
     planner = replace(planner, start=votes_only)
     result = planner.solve(problems["P2"], seed=0, time_budget_s=120.0)
     assert result.termination == "no_progress" and not result.success and result.plan == ()
@@ -227,7 +227,7 @@ def test_saycan_solves_p2_when_the_replies_name_the_right_next_action(problems) 
 def test_the_registry_builds_ep_saycan_with_the_configured_batch() -> None:
     planner = build_planner("ep-saycan", settings_of(llm="embedded", batch=3, cache_mode="off"))
     assert isinstance(planner.start, SayCan)
-    assert planner.name == "ep-saycan" and planner.start.settings.n_batch == 3
+    assert planner.name == "ep-saycan" and planner.start.settings.search.batch == 3
 
 
 class KappaDomainDouble:
