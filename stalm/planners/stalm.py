@@ -46,7 +46,7 @@ from stalm.search import ConcretePlan, ConcretizeResult, SearchPolicies, TaskPla
 from stalm.settings.tree import ProposerKind, RunSettings
 from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import stalm_proposal_seed
-from stalm.trial.step_log import StepRecord, proposal_record
+from stalm.trial.step_log import RoundLessons, StepRecord, proposal_record
 
 __all__ = ["StalmPlanner", "StalmSettings", "StalmStep", "StalmSteps"]
 
@@ -110,13 +110,13 @@ class StalmStep:
             if trial.episode.out_of_time():
                 return plans, None
             concrete = self.concretize(proposal, round_)
-            entry = account.concretized(record, round_, proposal, concrete, feedback, literals)
+            account.concretized(record, round_, proposal, concrete, feedback, literals)
             plans.extend(concrete.plans)
             if concrete.success and concrete.solution is not None:
                 return plans, concrete.solution
             if not settings.feedback or not proposal.plans:
                 break
-            entry.update(self.learn(concrete))
+            record.learned(self.learn(concrete))
             fresh = {plan.task_plan.actions for plan in concrete.plans} - tried
             tried |= fresh
             # ask again while the proposer still comes up with plans not tried in this step
@@ -161,15 +161,14 @@ class StalmStep:
                 backtracks=settings.backtracks,
             )
 
-    def learn(self, concrete: ConcretizeResult) -> dict[str, Any]:
+    def learn(self, concrete: ConcretizeResult) -> RoundLessons:
         """Geometric feedback from a round: its failed steps are learned, its grounded picks and
         placements refute rules; for the round's step-log entry, ``facts_learned`` counts the
         lessons not known before (a rule adds no PDDL fact), ``rules_refuted`` the rules."""
         problem = self.trial.episode.problem
         learned = self.memory.learn(failed_steps(problem, concrete.plans))
         refuted = self.memory.observe(grounded_steps(problem, concrete.plans))
-        failures = [kind for _, kind in concrete.failures]
-        return {"failures": failures, "facts_learned": learned, "rules_refuted": refuted}
+        return RoundLessons(tuple(kind for _, kind in concrete.failures), learned, refuted)
 
     def details(self) -> dict[str, Any]:
         return {
@@ -228,18 +227,16 @@ class ProposalAccount:
         concrete: ConcretizeResult,
         feedback: tuple[FailedStep, ...],
         literals: Iterable[GroundLiteral],
-    ) -> dict[str, Any]:
-        """Round ``round_``'s failure kinds, injections and entry of the step log (returned:
-        a feedback round adds what it learned)."""
+    ) -> None:
+        """Round ``round_``'s failure kinds, injections and entry of the step log (a
+        feedback round adds what it learned: :meth:`StepRecord.learned`)."""
         done = self.trial.done
         self.trial.episode.count_failures(concrete)
         if proposal.injected:
             self.injected += injected_records(
                 done, round_, proposal.injected, concrete.plans, literals
             )
-        entry = proposal_record(round_, len(feedback), concrete.plans, literals)
-        if proposal.set_aside:
-            entry["set_aside"] = list(proposal.set_aside)
+        entry = proposal_record(round_, len(feedback), concrete.plans, literals, proposal.set_aside)
         record.proposals.append(entry)
         log.info(
             "step %d, round %d: %s offered %d task plan(s)%s; %s",
@@ -250,7 +247,6 @@ class ProposalAccount:
             f" after {len(feedback)} feedback fact(s)" if feedback else "",
             concretize_summary(concrete),
         )
-        return entry
 
     def details(self) -> dict[str, Any]:
         proposer = self.proposer

@@ -14,7 +14,7 @@ planner decides when to call them, and fills its :class:`StepRecord` with what t
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from stalm.domain.outcome import Infeasibility
@@ -44,6 +44,148 @@ DECISIONS: dict[str, str] = {
 """Why a step executed what it executed, by the ``decision`` a step record holds."""
 
 
+Discrete = tuple[str, ...]
+"""A discrete action as in result files: the operator, then its arguments."""
+
+
+@dataclass(frozen=True)
+class FailureReason:
+    """Why Concretize stopped a task plan: the transition's :class:`Infeasibility`."""
+
+    kind: str
+    detail: str
+    blockers: tuple[str, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        return {"kind": self.kind, "detail": self.detail, "blockers": list(self.blockers)}
+
+
+@dataclass(frozen=True)
+class TaskPlanRecord:
+    """One task plan and what Concretize did with it (:func:`task_plan_record`)."""
+
+    index: int
+    actions: tuple[Discrete, ...]
+    unparseable: str | None
+    no_plan: str | None
+    reached_goal: bool
+    kind: str | None
+    """The Figure 5 kind of its failure, as the experiment counts it."""
+    concretize_kind: str | None
+    """The transition's own kind of failure."""
+    failed_step: int | None
+    feasible_steps: int
+    """How many of its steps got a feasible κ."""
+    truncated: bool
+    detail: str | None
+    reason: FailureReason | None
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "index": self.index,
+            "actions": [list(action) for action in self.actions],
+            "unparseable": self.unparseable,
+            "no_plan": self.no_plan,
+            "reached_goal": self.reached_goal,
+            "kind": self.kind,
+            "concretize_kind": self.concretize_kind,
+            "failed_step": self.failed_step,
+            "feasible_steps": self.feasible_steps,
+            "truncated": self.truncated,
+            "detail": self.detail,
+            "reason": None if self.reason is None else self.reason.to_json(),
+        }
+
+
+@dataclass(frozen=True)
+class RoundLessons:
+    """What a feedback round taught: its failure kinds, the lessons not known before (a rule
+    adds no PDDL fact) and the rules its grounded steps refuted."""
+
+    failures: tuple[str, ...]
+    facts_learned: int
+    rules_refuted: int
+
+
+@dataclass(frozen=True)
+class ProposalRound:
+    """One proposal round of a step: the facts the proposer was told, the plans it gave, the
+    literals it planned without (the symbolic proposer's occlusion cycles) and, with
+    feedback, what the round taught."""
+
+    round: int
+    feedback_facts: int
+    plans: tuple[TaskPlanRecord, ...]
+    set_aside: tuple[str, ...] = ()
+    lessons: RoundLessons | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        entry: dict[str, Any] = {
+            "round": self.round,
+            "feedback_facts": self.feedback_facts,
+            "plans": [plan.to_json() for plan in self.plans],
+        }
+        if self.set_aside:
+            entry["set_aside"] = list(self.set_aside)
+        if self.lessons is not None:
+            entry["failures"] = list(self.lessons.failures)
+            entry["facts_learned"] = self.lessons.facts_learned
+            entry["rules_refuted"] = self.lessons.rules_refuted
+        return entry
+
+
+@dataclass(frozen=True)
+class TreeActionRecord:
+    """A continuous node of the tree: its action, N, Q (to 4 places), κ children, feasible
+    ones, whether the warm start put it there; a root action also lists the most visited
+    actions below it (``children``; None below the root)."""
+
+    action: Discrete
+    n: int
+    q: float
+    kappas: int
+    feasible_kappas: int
+    warm: bool
+    children: tuple[TreeActionRecord, ...] | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        node: dict[str, Any] = {
+            "action": list(self.action),
+            "n": self.n,
+            "q": self.q,
+            "kappas": self.kappas,
+            "feasible_kappas": self.feasible_kappas,
+            "warm": self.warm,
+        }
+        if self.children is not None:
+            node["children"] = [child.to_json() for child in self.children]
+        return node
+
+
+@dataclass(frozen=True)
+class TreeRecord:
+    """The tree after a step's search (:func:`tree_record`)."""
+
+    root_visits: int
+    root_visits_before: int
+    discrete_nodes: int
+    kappa_children: int
+    root_actions: int
+    untried_root_actions: int
+    actions: tuple[TreeActionRecord, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "root_visits": self.root_visits,
+            "root_visits_before": self.root_visits_before,
+            "discrete_nodes": self.discrete_nodes,
+            "kappa_children": self.kappa_children,
+            "root_actions": self.root_actions,
+            "untried_root_actions": self.untried_root_actions,
+            "actions": [action.to_json() for action in self.actions],
+        }
+
+
 @dataclass
 class StepRecord:
     """One real step's entry of the log, filled in as the step runs: the step that begins it
@@ -53,9 +195,9 @@ class StepRecord:
 
     step: int
     """Real steps executed before this one."""
-    proposals: list[dict[str, Any]] = field(default_factory=list)
+    proposals: list[ProposalRound] = field(default_factory=list)
     """Per proposal round: :func:`proposal_record`, with what a feedback round taught."""
-    tree: dict[str, Any] | None = None
+    tree: TreeRecord | None = None
     """The search tree after the step's search (:func:`tree_record`); None without one."""
     decision: str | None = None
     """Why the step executed what it did: a key of :data:`DECISIONS`."""
@@ -80,10 +222,18 @@ class StepRecord:
         self.decision = "timeout"
         return "timeout"
 
+    def learned(self, lessons: RoundLessons) -> None:
+        """The last proposal round taught ``lessons`` (geometric feedback)."""
+        self.proposals[-1] = replace(self.proposals[-1], lessons=lessons)
+
     def to_json(self) -> dict[str, Any]:
         """The entry as plain JSON; what a step did not reach is left out (``tree`` is kept
         as null)."""
-        entry: dict[str, Any] = {"step": self.step, "proposals": self.proposals, "tree": self.tree}
+        entry: dict[str, Any] = {
+            "step": self.step,
+            "proposals": [round_.to_json() for round_ in self.proposals],
+            "tree": None if self.tree is None else self.tree.to_json(),
+        }
         for key in ("decision", "searches", "rules_refuted_by_tree", "executed"):
             value = getattr(self, key)
             if value is not None:
@@ -91,13 +241,13 @@ class StepRecord:
         return entry
 
 
-def action_json(action: object) -> list[str]:
-    """A discrete action as in result files (``["place", "salter", "right_of", "bottle1"]``)."""
+def action_json(action: object) -> Discrete:
+    """A discrete action as in result files (``("place", "salter", "right_of", "bottle1")``)."""
     as_tuple = getattr(action, "as_tuple", None)
-    return list(as_tuple()) if callable(as_tuple) else [str(action)]
+    return tuple(as_tuple()) if callable(as_tuple) else (str(action),)
 
 
-def _reason(plan: ConcretePlan) -> dict[str, Any] | None:
+def _reason(plan: ConcretePlan) -> FailureReason | None:
     """The failed step's Infeasibility: kind, sentence and blockers (None if no step failed)."""
     if plan.failed_step is None or plan.failed_step >= len(plan.steps):
         return None
@@ -105,30 +255,30 @@ def _reason(plan: ConcretePlan) -> dict[str, Any] | None:
     why = step.kappa if isinstance(step.kappa, Infeasibility) else step.outcome.failure
     if why is None:
         return None
-    return {"kind": why.kind, "detail": why.detail, "blockers": list(why.blockers)}
+    return FailureReason(why.kind, why.detail, tuple(why.blockers))
 
 
-def task_plan_record(plan: ConcretePlan, root_literals: Iterable[GroundLiteral]) -> dict[str, Any]:
+def task_plan_record(plan: ConcretePlan, root_literals: Iterable[GroundLiteral]) -> TaskPlanRecord:
     """One task plan and what Concretize did with it.
 
     ``kind`` is the Figure 5 kind (as the experiment counts it, occlusion of the first step
     judged by ``root_literals``, the prompt's predicates); ``concretize_kind`` is the
     transition's own; ``feasible_steps`` is how many steps got a feasible κ.
     """
-    return {
-        "index": plan.index,
-        "actions": [action_json(action) for action in plan.task_plan.actions],
-        "unparseable": plan.task_plan.unparseable,
-        "no_plan": plan.task_plan.no_plan,
-        "reached_goal": plan.reached_goal,
-        "kind": figure5_kind(plan, root_literals),
-        "concretize_kind": plan.failure,
-        "failed_step": plan.failed_step,
-        "feasible_steps": len(plan.actions),
-        "truncated": plan.truncated,
-        "detail": plan.detail,
-        "reason": _reason(plan),
-    }
+    return TaskPlanRecord(
+        index=plan.index,
+        actions=tuple(action_json(action) for action in plan.task_plan.actions),
+        unparseable=plan.task_plan.unparseable,
+        no_plan=plan.task_plan.no_plan,
+        reached_goal=plan.reached_goal,
+        kind=figure5_kind(plan, root_literals),
+        concretize_kind=plan.failure,
+        failed_step=plan.failed_step,
+        feasible_steps=len(plan.actions),
+        truncated=plan.truncated,
+        detail=plan.detail,
+        reason=_reason(plan),
+    )
 
 
 def proposal_record(
@@ -136,14 +286,12 @@ def proposal_record(
     feedback_facts: int,
     plans: Sequence[ConcretePlan],
     root_literals: Iterable[GroundLiteral],
-) -> dict[str, Any]:
+    set_aside: Sequence[str] = (),
+) -> ProposalRound:
     """One proposal round of a step: the facts the proposer was told and the plans it gave."""
     literals = frozenset(root_literals)
-    return {
-        "round": round_,
-        "feedback_facts": feedback_facts,
-        "plans": [task_plan_record(plan, literals) for plan in plans],
-    }
+    records = tuple(task_plan_record(plan, literals) for plan in plans)
+    return ProposalRound(round_, feedback_facts, records, tuple(set_aside))
 
 
 def warm_edges(plans: Iterable[ConcretePlan]) -> frozenset[tuple[State, object]]:
@@ -152,49 +300,53 @@ def warm_edges(plans: Iterable[ConcretePlan]) -> frozenset[tuple[State, object]]
 
 
 def _action_node(
-    cont: ContinuousNodeView, state: State, warm: frozenset[tuple[State, object]]
-) -> dict[str, Any]:
-    return {
-        "action": action_json(cont.action),
-        "n": cont.n,
-        "q": round(cont.q, 4),
-        "kappas": len(cont.children),
-        "feasible_kappas": sum(child.outcome.feasible for child in cont.children),
-        "warm": (state, cont.action) in warm,
-    }
+    cont: ContinuousNodeView,
+    state: State,
+    warm: frozenset[tuple[State, object]],
+    children: tuple[TreeActionRecord, ...] | None = None,
+) -> TreeActionRecord:
+    return TreeActionRecord(
+        action=action_json(cont.action),
+        n=cont.n,
+        q=round(cont.q, 4),
+        kappas=len(cont.children),
+        feasible_kappas=sum(child.outcome.feasible for child in cont.children),
+        warm=(state, cont.action) in warm,
+        children=children,
+    )
 
 
 def tree_record(
     tree: SearchTree, warm: frozenset[tuple[State, object]], visits_before: int = 0
-) -> dict[str, Any]:
+) -> TreeRecord:
     """The tree after a step's search: every root action that was visited or warm-started
     (with N, Q, κ counts and whether the warm start put it there), and below each the most
     visited actions from the state its most visited feasible κ leads to. Root actions never
     tried are only counted. ``visits_before`` is the root's N before the step (tree reuse)."""
     root = tree.node(tree.root)
-    shown: list[dict[str, Any]] = []
+    shown: list[TreeActionRecord] = []
     for cont in sorted(root.children, key=lambda c: (-c.n, -c.q)):
         if cont.n == 0 and (tree.root, cont.action) not in warm:
             continue
-        record = _action_node(cont, tree.root, warm)
         feasible = [k for k in cont.children if k.outcome.feasible and k.n > 0]
-        children: list[dict[str, Any]] = []
+        children: tuple[TreeActionRecord, ...] = ()
         if feasible:
             best = max(feasible, key=lambda k: (k.n, k.q))
             following = best.outcome.state
             if following in tree:
                 below = [c for c in tree.node(following).children if c.n > 0]
                 below.sort(key=lambda c: (-c.n, -c.q))
-                children = [_action_node(c, following, warm) for c in below[:TREE_CHILDREN_SHOWN]]
-        record["children"] = children
-        shown.append(record)
+                children = tuple(
+                    _action_node(c, following, warm) for c in below[:TREE_CHILDREN_SHOWN]
+                )
+        shown.append(_action_node(cont, tree.root, warm, children))
     stats = tree.stats()
-    return {
-        "root_visits": root.n,
-        "root_visits_before": visits_before,
-        "discrete_nodes": stats.discrete_nodes,
-        "kappa_children": stats.kappa_children,
-        "root_actions": len(root.children),
-        "untried_root_actions": len(root.children) - len(shown),
-        "actions": shown,
-    }
+    return TreeRecord(
+        root_visits=root.n,
+        root_visits_before=visits_before,
+        discrete_nodes=stats.discrete_nodes,
+        kappa_children=stats.kappa_children,
+        root_actions=len(root.children),
+        untried_root_actions=len(root.children) - len(shown),
+        actions=tuple(shown),
+    )

@@ -13,7 +13,10 @@ from stalm.planners.stalm import StalmPlanner
 from stalm.search import SearchSettings, SearchTree, concretize, warm_started_uct
 from stalm.trial.step_log import (
     DECISIONS,
+    ProposalRound,
+    RoundLessons,
     StepRecord,
+    TreeRecord,
     task_plan_record,
     tree_record,
     warm_edges,
@@ -27,8 +30,9 @@ def test_a_step_record_keeps_what_the_step_reached_and_leaves_out_the_rest() -> 
     timed_out = StepRecord(step=3)
     timed_out.decision = "timeout"
     assert timed_out.to_json() == {"step": 3, "proposals": [], "tree": None, "decision": "timeout"}
-    searched = StepRecord(step=0, proposals=[{"round": 0}])
-    searched.tree, searched.decision, searched.searches = {"root_visits": 4}, "progress", 2
+    searched = StepRecord(step=0, proposals=[ProposalRound(0, 0, ())])
+    tree = TreeRecord(4, 0, 3, 5, 2, 1, ())
+    searched.tree, searched.decision, searched.searches = tree, "progress", 2
     searched.rules_refuted_by_tree, searched.executed = 0, 1
     entry = searched.to_json()
     assert list(entry) == [
@@ -41,7 +45,22 @@ def test_a_step_record_keeps_what_the_step_reached_and_leaves_out_the_rest() -> 
         "executed",
     ]
     assert entry["rules_refuted_by_tree"] == 0 and entry["executed"] == 1
+    assert entry["proposals"] == [{"round": 0, "feedback_facts": 0, "plans": []}]
+    assert entry["tree"]["root_visits"] == 4 and entry["tree"]["actions"] == []
     assert json.loads(json.dumps(entry)) == entry
+    # a feedback round adds what it taught to its entry, after what the round offered
+    searched.proposals.append(ProposalRound(1, 2, (), ("PickOccludedBy(a, b)",)))
+    searched.learned(RoundLessons(("no_placement",), 1, 0))
+    assert list(searched.to_json()["proposals"][1]) == [
+        "round",
+        "feedback_facts",
+        "plans",
+        "set_aside",
+        "failures",
+        "facts_learned",
+        "rules_refuted",
+    ]
+    assert searched.proposals[0].lessons is None  # only the last round learned
 
 
 def test_a_step_ends_by_executing_or_timing_out_and_says_so() -> None:
@@ -63,7 +82,7 @@ def test_a_failed_plan_records_its_failed_step_kind_reason_and_the_warm_tree() -
     root = state("s0")
     rng = np.random.default_rng(0)
     concrete = concretize(mdp, root, [plan("a", "b", "c")], rng)
-    record = task_plan_record(concrete.plans[0], ())
+    record = task_plan_record(concrete.plans[0], ()).to_json()
     assert record["actions"] == [["a"], ["b"], ["c"]]
     assert record["failed_step"] == 2 and record["feasible_steps"] == 2
     assert record["kind"] == "lack_of_3d_understanding"
@@ -71,7 +90,7 @@ def test_a_failed_plan_records_its_failed_step_kind_reason_and_the_warm_tree() -
 
     tree = SearchTree.for_root(mdp, root)
     warm_started_uct(mdp, root, concrete.plans, rng, settings=SearchSettings(budget=0), tree=tree)
-    shown = tree_record(tree, warm_edges(concrete.plans), visits_before=0)
+    shown = tree_record(tree, warm_edges(concrete.plans), visits_before=0).to_json()
     # the warm start visited a (and below it b); u was never tried and is only counted
     assert [a["action"] for a in shown["actions"]] == [["a"]]
     assert shown["root_actions"] == 2 and shown["untried_root_actions"] == 1
@@ -82,7 +101,7 @@ def test_a_failed_plan_records_its_failed_step_kind_reason_and_the_warm_tree() -
 
     # after simulations, root actions the search found itself are not marked warm
     warm_started_uct(mdp, root, [], rng, settings=SearchSettings(budget=12), tree=tree)
-    searched = tree_record(tree, warm_edges(concrete.plans), visits_before=1)
+    searched = tree_record(tree, warm_edges(concrete.plans), visits_before=1).to_json()
     by_name = {a["action"][0]: a for a in searched["actions"]}
     assert by_name["a"]["warm"] and "u" in by_name and not by_name["u"]["warm"]
     # (a simulation through e comes back to s0: the root counts that visit too)
