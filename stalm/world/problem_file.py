@@ -19,7 +19,7 @@ from pydantic import ValidationError
 
 from stalm.errors import StalmError
 from stalm.files import MAX_PROBLEM_FILE_BYTES, excerpt, load_yaml, read_text
-from stalm.world.spec import ProblemSpec
+from stalm.world.spec import MESH_BASE_CONTEXT, ProblemSpec
 
 MAX_ERROR_LINES = 6
 """Validation problems listed at most (a file with hundreds of them is not the user's typo)."""
@@ -92,8 +92,10 @@ def _first_boolean(data: object, loc: tuple[object, ...] = ()) -> str | None:
     return found[0] + more
 
 
-def parse_problem(data: object, source: str = "<problem>") -> ProblemSpec:
-    """Validate already-loaded problem data; errors name ``source`` and the field."""
+def parse_problem(data: object, source: str = "<problem>", base: Path | None = None) -> ProblemSpec:
+    """Validate already-loaded problem data; errors name ``source`` and the field. A mesh
+    object's relative file path resolves against ``base`` (the problem file's folder; the
+    working folder if None)."""
     if not isinstance(data, dict):
         kind = "text" if isinstance(data, str) else type(data).__name__
         raise StalmError(f"{source}: a problem file must be a mapping of fields, got {kind}")
@@ -106,7 +108,7 @@ def parse_problem(data: object, source: str = "<problem>") -> ProblemSpec:
     if boolean is not None:
         raise StalmError(f"{source}: {boolean}")
     try:
-        return ProblemSpec.model_validate(data)
+        return ProblemSpec.model_validate(data, context={MESH_BASE_CONTEXT: base})
     except ValidationError as error:
         raise StalmError(format_validation_error(source, error)) from None
 
@@ -116,4 +118,4 @@ def load_problem_file(path: Path) -> ProblemSpec:
     :data:`~stalm.files.MAX_PROBLEM_FILE_BYTES`)."""
     text = read_text(path, MAX_PROBLEM_FILE_BYTES, "problem file")
     data = load_yaml(text, str(path))
-    return parse_problem(data, str(path))
+    return parse_problem(data, str(path), path.parent)
