@@ -143,7 +143,8 @@ def _mesh_window(
     """A mesh's grasp, as a box's: the widest run of yaws in ``yaw_range`` (ties: the one
     most straight ahead) where the width of its hull across the fingers
     (:func:`~stalm.world.grip_widths.hull_widths`, measured every :data:`MESH_YAW_STEP`) fits
-    ``gap``; from the side at half its height (capped) if it is tall enough, else from above.
+    ``gap`` at every yaw of the run, not only the measured ones; from the side at half its
+    height (capped) if it is tall enough, else from above.
     The grasp point is centred across the fingers at the run's middle yaw and, from the side,
     at most ``palm_depth`` behind the mesh's near side, so the palm stays out of it."""
     outline = obj.outline
@@ -151,7 +152,10 @@ def _mesh_window(
     count = max(2, math.ceil((yaw_range[1] - yaw_range[0]) / MESH_YAW_STEP) + 1)
     yaws = np.linspace(yaw_range[0], yaw_range[1], count)
     approach = yaws + stand[2] - pose.yaw  # the approach direction in the object's frame
-    fits = hull_widths(points, approach + math.pi / 2) <= gap
+    # between two samples the width grows at most 2 r per radian (r: the farthest vertex from
+    # the frame's axis), so a yaw within half a step of a sample is at most r * step wider
+    slack = float(np.hypot(points[:, 0], points[:, 1]).max()) * (yaws[1] - yaws[0])
+    fits = hull_widths(points, approach + math.pi / 2) <= gap - slack
     best: tuple[float, float, int, int] | None = None
     start = None
     for index in range(count + 1):

@@ -215,3 +215,29 @@ def test_pybullet_data_names_resolve_inside_the_package() -> None:
 
     path = resolve_mesh_path("pybullet_data:duck_vhacd.obj", None)
     assert path == Path(pybullet_data.getDataPath()) / "duck_vhacd.obj"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", "a face names a vertex the file does not have"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "is a flat mesh"),
+        ("v 0 0 0\nv 1 0 x\nf 1 2 3\n", "is not a readable OBJ"),
+    ],
+)
+def test_an_obj_that_is_no_mesh_is_refused(tmp_path: Path, text: str, message: str) -> None:
+    path = tmp_path / "bad.obj"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=message):
+        mesh_outline(path, 1.0)
+
+
+def test_a_decomposition_that_writes_nothing_is_an_error_and_leaves_no_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("STALM_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(mesh_pieces, "_VHACD_SCRIPT", "pass  # a V-HACD that writes nothing")
+    single = mesh_outline(_write_l_shape(tmp_path / "one.obj", groups=False), 1.0)
+    with pytest.raises(StalmError, match="V-HACD could not decompose the mesh"):
+        mesh_pieces.convex_pieces(single)
+    assert list((tmp_path / "cache" / "meshes").iterdir()) == []
