@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
+from functools import cache
 
 import numpy as np
 import pybullet as p
@@ -69,9 +70,17 @@ def object_boxes(obj: ObjectSpec) -> list[tuple[tuple[float, float, float], tupl
         half = obj.half_extents
         return [((0.0, 0.0, half[2]), half)]
     if obj.shape == "mesh":
-        return [_piece_box(piece) for piece in object_pieces(obj).vertices]
+        return list(_mesh_boxes(obj))
     assert obj.radius is not None and obj.height is not None
     return [((0.0, 0.0, obj.height / 2), (obj.radius, obj.radius, obj.height / 2))]
+
+
+@cache
+def _mesh_boxes(
+    obj: ObjectSpec,
+) -> tuple[tuple[tuple[float, float, float], tuple[float, ...]], ...]:
+    """A mesh object's piece boxes, computed once (the scene asks for them at every test)."""
+    return tuple(_piece_box(piece) for piece in object_pieces(obj).vertices)
 
 
 def _piece_box(

@@ -68,19 +68,20 @@ def test_a_low_mesh_is_taken_from_above_a_tall_one_from_the_side() -> None:
     window = grasp_window(brick, ahead, stand, PITCH_RANGE, YAW_RANGE)
     assert window is not None
     assert window.pitch_range == pytest.approx((math.pi / 4, math.pi / 2))
-    toy = problem.spec.object("toy")  # 0.092 m high, 0.093 m deep along x, 0.033 m across
-    window = grasp_window(toy, ahead, stand, PITCH_RANGE, YAW_RANGE)
+    toy = problem.spec.object("toy")  # 0.093 m high, 0.033 m along x, 0.092 m along y
+    facing = ObjectPose.make(0.7, 0.0, 1.0, math.pi / 2)  # its narrow side across the fingers
+    window = grasp_window(toy, facing, stand, PITCH_RANGE, YAW_RANGE)
     assert window is not None
     assert window.pitch_range == PITCH_RANGE
-    # taken straight ahead at half its height, the palm's depth inside its near side
-    near = float(toy.outline.points[:, 0].min())
-    # (along the window's middle yaw, a fraction of a degree off straight ahead)
-    assert window.local[0] == pytest.approx(near + robot_model.GRIPPER_PALM_DEPTH, abs=1e-3)
+    # taken straight ahead (along its -y) at half its height, the palm's depth inside its near
+    # side (along the window's middle yaw, a fraction of a degree off straight ahead)
+    near = -float(toy.outline.points[:, 1].max())
+    assert -window.local[1] == pytest.approx(near + robot_model.GRIPPER_PALM_DEPTH, abs=1e-3)
     assert window.local[2] == pytest.approx(toy.half_extents[2])
     assert window.yaw_range[0] < 0.0 < window.yaw_range[1]
-    # turned a quarter, its 0.093 m is across the fingers straight ahead: it is taken only
+    # turned a quarter, its 0.092 m is across the fingers straight ahead: it is taken only
     # turned well to the side, where its narrow depth comes between them
-    across = ObjectPose.make(0.7, 0.0, 1.0, math.pi / 2)
+    across = ObjectPose.make(0.7, 0.0, 1.0, 0.0)
     turned = grasp_window(toy, across, stand, PITCH_RANGE, YAW_RANGE)
     assert turned is not None
     assert min(abs(turned.yaw_range[0]), abs(turned.yaw_range[1])) > math.radians(30)

@@ -165,8 +165,8 @@ def test_mesh_widths_are_the_support_width_of_its_hull() -> None:
     for angle, width in zip(angles, widths, strict=True):
         along = points[:, 0] * math.cos(angle) + points[:, 1] * math.sin(angle)
         assert width == pytest.approx(along.max() - along.min(), abs=1e-12)
-    # the toy is 0.093 x 0.033 in its frame: narrowest across y
-    assert narrowest_grip(obj) == pytest.approx(2 * obj.half_extents[1], abs=2e-3)
+    # the toy is 0.033 x 0.092 in its frame: narrowest across x
+    assert narrowest_grip(obj) == pytest.approx(2 * obj.half_extents[0], abs=2e-3)
     assert too_wide(obj, robot_model.GRIPPER_GAP) is None
 
 
