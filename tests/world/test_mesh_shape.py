@@ -221,7 +221,7 @@ def test_pybullet_data_names_resolve_inside_the_package() -> None:
     ("text", "message"),
     [
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", "a face names a vertex the file does not have"),
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "is a flat mesh"),
+        ("v 0 0 0\n\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "is a flat mesh"),
         ("v 0 0 0\nv 1 0 x\nf 1 2 3\n", "is not a readable OBJ"),
     ],
 )
@@ -241,3 +241,14 @@ def test_a_decomposition_that_writes_nothing_is_an_error_and_leaves_no_file(
     with pytest.raises(StalmError, match="V-HACD could not decompose the mesh"):
         mesh_pieces.convex_pieces(single)
     assert list((tmp_path / "cache" / "meshes").iterdir()) == []
+
+
+def test_a_mesh_file_over_the_size_limit_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from stalm.world import mesh_files
+
+    _write_l_shape(tmp_path / "l.obj", groups=True)
+    monkeypatch.setattr(mesh_files, "MAX_OBJ_BYTES", 100)
+    with pytest.raises(ValueError, match=r"mesh file 'l\.obj' is larger than 100 bytes"):
+        resolve_mesh_path("l.obj", tmp_path)
