@@ -32,7 +32,7 @@ HULL_MARGIN = 0.001
 """PyBullet's collision margin around a convex hull (m): a hull resting exactly on a surface
 reports this much penetration, the tolerance of "resting" (measured)."""
 CACHE_FOLDER = "meshes"
-"""The cache subfolder holding decomposed OBJs, ``<sha256>.obj``."""
+"""The cache subfolder holding decomposed OBJs, ``<sha256>-vhacd<resolution>.obj``."""
 
 
 @dataclass(frozen=True)
@@ -53,7 +53,8 @@ class MeshPieces:
 
 def decomposition_path(outline: MeshOutline) -> Path:
     """Where the V-HACD decomposition of ``outline``'s file is cached."""
-    return stalm_cache_dir() / CACHE_FOLDER / f"{outline.sha256[:32]}.obj"
+    name = f"{outline.sha256[:32]}-vhacd{VHACD_RESOLUTION}.obj"  # another resolution: another file
+    return stalm_cache_dir() / CACHE_FOLDER / name
 
 
 def convex_pieces(outline: MeshOutline) -> MeshPieces:

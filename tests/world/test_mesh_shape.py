@@ -252,3 +252,14 @@ def test_a_mesh_file_over_the_size_limit_is_refused(
     monkeypatch.setattr(mesh_files, "MAX_OBJ_BYTES", 100)
     with pytest.raises(ValueError, match=r"mesh file 'l\.obj' is larger than 100 bytes"):
         resolve_mesh_path("l.obj", tmp_path)
+
+
+def test_a_decomposition_is_cached_under_its_files_hash_and_resolution(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("STALM_CACHE_DIR", str(tmp_path / "cache"))
+    single = mesh_outline(_write_l_shape(tmp_path / "one.obj", groups=False), 1.0)
+    first = mesh_pieces.decomposition_path(single)
+    assert first.name == f"{single.sha256[:32]}-vhacd{mesh_pieces.VHACD_RESOLUTION}.obj"
+    monkeypatch.setattr(mesh_pieces, "VHACD_RESOLUTION", 2 * mesh_pieces.VHACD_RESOLUTION)
+    assert mesh_pieces.decomposition_path(single) != first
