@@ -4,29 +4,14 @@ planner's."""
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
-from stalm.planners.iterative_replanning import IterativeReplanningPlanner
-from stalm.planners.llm_mcts import LlmMctsPlanner
-from stalm.planners.pddlstream import PDDLStreamPlanner
-from stalm.planners.saycan import EpSayCanPlanner
-from stalm.planners.stalm import StalmPlanner
-from stalm.planners.stalm_no_uct import StalmNoUctPlanner
-from stalm.planners.uct import UctPlanner
-from stalm.planners.uct_hcount import UctHcountPlanner
+from stalm.planners import iterative_replanning, llm_mcts, saycan, stalm, uct
+from stalm.planners.pddlstream import planner as pddlstream
 
 ROOT = Path(__file__).resolve().parents[1]
-PLANNERS = (
-    StalmPlanner,
-    StalmNoUctPlanner,
-    UctPlanner,
-    UctHcountPlanner,
-    EpSayCanPlanner,
-    IterativeReplanningPlanner,
-    LlmMctsPlanner,
-    PDDLStreamPlanner,
-)
+PLANNERS = (stalm, uct, saycan, iterative_replanning, llm_mcts, pddlstream)
+"""The modules of every planner of the registry (its parts and ablations live with them)."""
 
 
 def named_paths() -> set[str]:
@@ -49,6 +34,6 @@ def test_every_path_the_section_names_exists() -> None:
 def test_the_section_names_the_file_of_every_planner() -> None:
     paths = named_paths()
     for planner in PLANNERS:
-        module = sys.modules[planner.__module__].__file__
+        module = planner.__file__
         assert module is not None
         assert Path(module).resolve().relative_to(ROOT).as_posix() in paths, planner.__name__

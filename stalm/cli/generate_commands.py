@@ -11,6 +11,7 @@ from rich.console import Console
 from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
 from stalm.errors import StalmError
+from stalm.generate.arrange import MAX_OBJECTS
 
 commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
@@ -42,8 +43,10 @@ def generate_command(
     objects: Annotated[
         int,
         typer.Option(
-            help="Movable objects (one problem): at most 120, and at least one per goal and "
-            "occluder (with --trap one more; with 2 or more goals one reference object)."
+            help="Movable objects (one problem): at most what the layout holds (kitchen-hall "
+            "158, storeroom 346 with the default knobs; fewer with more goals or deeper "
+            f"chains) and at most {MAX_OBJECTS}, and at least one per goal and occluder (with "
+            "--trap one more; with 2 or more goals one reference object)."
         ),
     ] = 12,
     goals: Annotated[int, typer.Option(help="Goal objects (1-4).")] = 2,
@@ -58,12 +61,22 @@ def generate_command(
         bool,
         typer.Option(help="P5's trap: cans, then the grill, onto the walled counter (goals 2-3)."),
     ] = False,
-    layout: Annotated[str, typer.Option(help="The static scene: kitchen-hall.")] = "kitchen-hall",
+    layout: Annotated[
+        str,
+        typer.Option(
+            help="The static scene: a built-in layout (kitchen-hall, storeroom) or a layout "
+            "file (a problem file with no objects and no goal, FILE.yaml)."
+        ),
+    ] = "kitchen-hall",
     suite: Annotated[
         str | None, typer.Option(help="Make a suite of this name in the folder --out.")
     ] = None,
     sizes: Annotated[
-        str, typer.Option(help="With --suite: object counts, comma-separated, each 1-120.")
+        str,
+        typer.Option(
+            help=f"With --suite: object counts, comma-separated, each 1-{MAX_OBJECTS} and at "
+            "most what the layout holds."
+        ),
     ] = "8,16,32,64",
     per_size: Annotated[
         int, typer.Option(help="With --suite: problems per size (at least 1).")
@@ -80,6 +93,7 @@ def generate_command(
     """Write a solvable problem (or a suite): a scene, objects behind chains of occluders, a
     goal, and a witness plan grounded and replayed in the simulator."""
     from stalm.generate.arrange import Knobs
+    from stalm.generate.layout import load_layout
     from stalm.generate.problem_maker import generate_problem, problem_name
     from stalm.generate.suite import generate_suite, witness_path, write_generated
     from stalm.generate.suite_index import check_suite_name
@@ -88,6 +102,7 @@ def generate_command(
         raise StalmError(f"--door must be 'closed' or 'open', got {door!r}")
     if replace and suite is None:
         raise StalmError("--replace goes with --suite (one problem's files are always replaced)")
+    static = load_layout(layout)
     if suite is not None:
         check_suite_name(suite)
         if out.exists() and not out.is_dir():
@@ -104,7 +119,7 @@ def generate_command(
                 out,
                 knobs,
                 progress=lambda message: status.update(shown(message)),
-                layout=layout,
+                layout=static,
                 replace=replace,
             )
         typer.echo(f"wrote {len(made.problems)} problems and {out / 'index.json'}")
@@ -114,9 +129,10 @@ def generate_command(
     check_output_file(out, "-o")
     check_output_file(witness_path(out), "-o (its witness)")
     knobs = Knobs(objects, goals, occlusion_depth, door == "closed", trap)
+    static.check_capacity(knobs)
     with console.status("generating (grounding the witness in the simulator)..."):
         generated = generate_problem(
-            knobs, seed, problem_name(out.stem), layout=layout, source=str(out)
+            knobs, seed, problem_name(out.stem), layout=static, source=str(out)
         )
     witness = write_generated(generated, out)
     length = generated.problem.spec.optimal_length

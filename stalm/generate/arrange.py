@@ -8,9 +8,11 @@ move them, front first, before it can reach the goal object. Each goal object go
 region in the other room (so a closed door must be opened first); with two goals or more the
 last one goes beside a reference object standing there (``left_of``), as P2's salter goes
 right of its bottle. With ``trap`` the goal is P5's: cans and then the grill onto the walled
-counter, where the grill fits only at the front and, standing there, leaves no room. The
-other objects are clutter, on free slots anywhere but the walled counter; the front half of
-each goal region and the front rows of the regions occluders are put on stay free.
+counter, where the grill fits only at the front and, standing there, leaves no room; the
+region the grill starts on holds nothing else. The other objects are clutter, on free slots
+anywhere but the walled counter; the front half of each goal region and the front rows of the
+regions occluders are put on stay free. :func:`capacity` counts, from the regions alone, how
+many objects that leaves room for whatever is drawn.
 
 The task plan that solves it (:class:`Arrangement.plan`) follows from the construction: open
 the door, then for each chain its occluders onto other regions, front first, then the goal
@@ -38,18 +40,18 @@ CAN = {"shape": "cylinder", "radius": 0.033, "height": 0.12}
 BOTTLE = {"shape": "cylinder", "radius": 0.035, "height": 0.25}
 GRILL = {"shape": "grill", "size": [0.16, 0.42, 0.45], "handle_height": 0.135}
 """P5's grill: its lid makes it too tall to reach over into the walled pocket behind it."""
-GRILL_START = ("counter2", (-0.1, 0.0))
-"""Where the trap's grill starts: P5's, the front of counter2."""
 DUMP = "?"
 """Stands for an occluder's region in a chain's steps until the regions are known."""
 MAX_DEPTH = 3
 """Deepest chain: a counter holds four rows."""
 MAX_GOALS = 4
 """Most goal objects of a generated problem."""
-MAX_OBJECTS = 120
-"""Most movable objects of a generated problem (``--objects``, each of ``--sizes``)."""
-UNUSED_FOR_GOALS = frozenset({"shelf_lower"})
-"""Regions no chain starts on and no goal goes to (the shelf is at 1.6 m): clutter only."""
+MAX_OBJECTS = 1000
+"""Most movable objects of any generated problem (``--objects``, each of ``--sizes``), whatever
+the layout holds: beyond it a problem takes too long to make and to load."""
+GOAL_TOP_MAX = 1.4
+"""Regions whose top is higher (the kitchen's shelf, at 1.6 m) are for clutter only: no chain
+starts there and no goal or occluder goes there."""
 PALETTE = (
     (0.8, 0.15, 0.15, 1.0),
     (0.15, 0.55, 0.2, 1.0),
@@ -90,7 +92,7 @@ class Knobs:
                 f"--objects {self.objects} is too few for {self.goals} goals "
                 f"{self.occlusion_depth} deep: at least {self.least_objects}"
             )
-        if self.objects > MAX_OBJECTS:
+        if self.objects > MAX_OBJECTS:  # what a layout holds is checked with the layout
             raise StalmError(f"--objects must be at most {MAX_OBJECTS}, got {self.objects}")
 
     @property
@@ -104,6 +106,12 @@ class Knobs:
         return chains * (1 + self.occlusion_depth) + (1 if self.trap else 0) + self.relative
 
 
+def grid(region: dict[str, Any]) -> tuple[int, int]:
+    """Rows and columns of slots on ``region`` (none where its usable area is too small)."""
+    ux, uy = region.get("usable") or region["size"]
+    return max(0, int((ux - 2 * EDGE) // ROW) + 1), max(0, int((uy - 2 * EDGE) // COLUMN) + 1)
+
+
 @dataclass
 class Slots:
     """A region's free slots, ``(row, column) -> (u, v)``; row 0 is the back row."""
@@ -113,9 +121,8 @@ class Slots:
 
     @classmethod
     def of(cls, region: dict[str, Any]) -> Slots:
-        ux, uy = region.get("usable") or region["size"]
-        rows = int((ux - 2 * EDGE) // ROW) + 1
-        columns = int((uy - 2 * EDGE) // COLUMN) + 1
+        ux = (region.get("usable") or region["size"])[0]
+        rows, columns = grid(region)
         back = ux / 2 - EDGE
         left = (columns - 1) * COLUMN / 2
         return cls(
@@ -150,10 +157,56 @@ class Arrangement:
     the scene has such regions), most free room first."""
 
 
+def clutter_only(region: dict[str, Any]) -> bool:
+    """Is ``region`` too high for chains, goals and occluders (see :data:`GOAL_TOP_MAX`)?"""
+    return float(region["top"]) > GOAL_TOP_MAX
+
+
+def capacity(
+    regions: list[dict[str, Any]],
+    knobs: Knobs,
+    walled: str | None,
+    grill_region: str | None,
+    *,
+    clear_fronts: bool = False,
+) -> int:
+    """The most objects :func:`arrange` always has room for on ``regions`` with ``knobs``,
+    whichever regions and columns it draws: every slot, less the slots it keeps free at most
+    (each chain's two side columns, and with ``clear_fronts`` its way in, three columns of the
+    deepest region; half of each goal region, the largest ones counted; three per occluder
+    put down; the walled counter and the grill's region whole), and the grill, which takes no
+    slot."""
+    sizes = {r["name"]: len(Slots.of(r).free) for r in regions}
+    chains = knobs.goals - (1 if knobs.trap else 0)
+    apart = {walled, grill_region} if knobs.trap else set()
+    held = sum(n for name, n in sizes.items() if name not in apart)
+    deepest = max(grid(r)[0] for r in regions)
+    chain = knobs.occlusion_depth + 1
+    sides = (3 * deepest - chain if clear_fronts else 2 * chain) * chains
+    halves = 0
+    if not knobs.trap:
+        goal_sizes = [sizes[r["name"]] for r in regions if not clutter_only(r)]
+        halves = sum(n // 2 for n in sorted(goal_sizes, reverse=True)[:chains])
+    put_down = 3 * chains * knobs.occlusion_depth
+    return max(0, held - sides - halves - put_down + (1 if knobs.trap else 0))
+
+
 def arrange(
-    regions: list[dict[str, Any]], knobs: Knobs, rng: np.random.Generator, door: str | None
+    regions: list[dict[str, Any]],
+    knobs: Knobs,
+    rng: np.random.Generator,
+    door: str | None,
+    walled: str | None = None,
+    grill_start: tuple[str, tuple[float, float]] | None = None,
+    *,
+    clear_fronts: bool = False,
 ) -> Arrangement:
-    """Objects, goal and task plan for ``knobs`` on ``regions`` (see the module docstring)."""
+    """Objects, goal and task plan for ``knobs`` on ``regions`` (see the module docstring);
+    ``walled`` is the trap's walled counter and ``grill_start`` the region and slot where the
+    grill starts, both needed with ``knobs.trap``. With ``clear_fronts`` no clutter stands in
+    front of a chain either (its column and side columns stay free to the region's front), so
+    that in dense clutter the way in is as deep as the chain: the kitchen-hall's problems were
+    made without it and keep being made so, byte for byte."""
     slots = {r["name"]: Slots.of(r) for r in regions}
     rooms = {r["name"]: r["room"] for r in regions}
     objects: list[dict[str, Any]] = []
@@ -165,13 +218,11 @@ def arrange(
         objects.append({"name": name, **kind, "on": region, "at": list(at), "color": list(color)})
         return name
 
-    walled = next((r["name"] for r in regions if r["name"] == "walled_counter"), None)
-    grill_region = GRILL_START[0] if knobs.trap else None
-    usable = [
-        name
-        for name in slots
-        if name not in UNUSED_FOR_GOALS and name not in (walled, grill_region)
-    ]
+    high = {r["name"] for r in regions if clutter_only(r)}
+    if walled not in slots:
+        walled = None
+    grill_region = grill_start[0] if knobs.trap and grill_start else None
+    usable = [name for name in slots if name not in high and name not in (walled, grill_region)]
     chains = knobs.goals - (1 if knobs.trap else 0)
     goal: list[list[str]] = []
     steps: list[list[DiscreteAction]] = []
@@ -179,10 +230,10 @@ def arrange(
     sources_used: set[str] = set()
     grill = None
     if knobs.trap:
-        if walled is None:
+        if walled is None or grill_start is None:
             raise StalmError("the layout has no walled counter for --trap")
-        grill = put(GRILL, "grill", GRILL_START[0], GRILL_START[1])
-        slots[GRILL_START[0]].free.clear()  # the grill fills counter2's front; nothing else goes
+        grill = put(GRILL, "grill", grill_start[0], grill_start[1])
+        slots[grill_start[0]].free.clear()  # the grill stands at its front; nothing else goes
     for index in range(chains):
         sources = [
             s
@@ -218,8 +269,13 @@ def arrange(
             )
             for r in range(1, knobs.occlusion_depth + 1)
         ]
-        for row in range(knobs.occlusion_depth + 1):  # the chain's sides stay clear: only
-            for side in (column - 1, column + 1):  # its own occluders stand in the way
+        # the chain's sides stay clear (with clear_fronts its way in too): only its own
+        # occluders stand in the way
+        rows = grid(slots[source].region)[0] if clear_fronts else knobs.occlusion_depth + 1
+        for row in range(rows):
+            for side in (
+                (column - 1, column, column + 1) if clear_fronts else (column - 1, column + 1)
+            ):
                 slots[source].free.pop((row, side), None)
         chain_steps: list[DiscreteAction] = []
         for occluder in reversed(occluders):  # the front one first; its region comes below
@@ -238,7 +294,7 @@ def arrange(
         goal.append([grill, "on", walled or ""])
         steps.append([Pick(grill), Place(grill, "on", walled or "")])
     # occluders go where no goal goes, where no chain starts if there is such a region
-    spare = [n for n in slots if n not in goal_regions and n not in UNUSED_FOR_GOALS]
+    spare = [n for n in slots if n not in goal_regions and n not in high]
     spare = [n for n in spare if n not in sources_used] or spare
     dumps = tuple(sorted(spare, key=lambda n: (-len(slots[n].free), n)))
     if not dumps:

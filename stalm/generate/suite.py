@@ -38,6 +38,7 @@ from stalm.files import (
     write_together,
 )
 from stalm.generate.arrange import Knobs
+from stalm.generate.layout import Layout, load_layout
 from stalm.generate.problem_maker import Generated, generate_problem, problem_name
 from stalm.generate.suite_index import (
     INDEX,
@@ -101,19 +102,21 @@ def generate_suite(
     folder: Path,
     knobs: Knobs,
     progress: Callable[[str], None] = lambda _: None,
-    layout: str = "kitchen-hall",
+    layout: Layout | str = "kitchen-hall",
     *,
     replace: bool = False,
 ) -> Suite:
     """Generate and write a suite (see the module docstring); ``knobs.objects`` is replaced
-    by each size. Everything that would stop it (the name, the sizes, the folder and its
-    files, another suite there) is checked before the first problem is made."""
+    by each size. Everything that would stop it (the name, the layout, the sizes, the folder
+    and its files, another suite there) is checked before the first problem is made."""
+    if isinstance(layout, str):
+        layout = load_layout(layout)
     check_suite_name(name)
     check_seed(seed, "--seed")  # SeedSequence takes no negative seed
     if not sizes or per_size < 1:
         raise StalmError("a suite needs --sizes and a --per-size of at least 1")
-    for size in sizes:
-        dataclasses.replace(knobs, objects=size)  # a size too small fails here, before work
+    for size in sizes:  # a size too small or too large fails here, before work
+        layout.check_capacity(dataclasses.replace(knobs, objects=size))
     planned = [
         _Planned(
             f"{name}-{index:03d}.yaml",
@@ -123,7 +126,7 @@ def generate_suite(
         for index, size in enumerate(s for s in sizes for _ in range(per_size))
     ]
     _check_folder(folder, planned)
-    made = Suite(name, seed, _knobs_json(knobs), (), folder, tuple(sizes), per_size, layout)
+    made = Suite(name, seed, _knobs_json(knobs), (), folder, tuple(sizes), per_size, layout.name)
     kept = _replace_old(folder) if replace else _resumable(folder, made, planned)
     folder.mkdir(parents=True, exist_ok=True)
     problems: list[SuiteProblem] = []

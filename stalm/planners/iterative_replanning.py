@@ -32,7 +32,7 @@ from stalm.proposers.model_backend import llm_backend, use_constraint
 from stalm.search import TaskPlan, concretize
 from stalm.search.concretize import ConcretePlan
 from stalm.settings.tree import RunSettings
-from stalm.trial.online import Decision, OnlinePlanner, Sampling, Trial
+from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import query_seed
 
 
@@ -57,44 +57,47 @@ def failed_plan(plan: ConcretePlan) -> FailedPlan:
     return FailedPlan(plan.task_plan.actions, kind, reason, plan.failed_step)
 
 
-class IterativeReplanningPlanner(OnlinePlanner):
+@dataclass(frozen=True)
+class Replanning:
+    """Iterative-Replanning's part of a planner: the model, whether its replies are
+    constrained, the prompt options and the method's own constants (which the settings tree
+    does not hold); called at a trial's start, its rounds (:class:`ReplanningRounds`)."""
+
+    backend: LLMBackend
+    constrained: bool
+    options: PromptOptions
+    settings: ReplanningSettings = ReplanningSettings()
+
+    def __call__(self, trial: Trial) -> ReplanningRounds:
+        return ReplanningRounds(self, trial, Vocabulary.from_problem(trial.episode.problem))
+
+
+def IterativeReplanningPlanner(
+    backend: LLMBackend, settings: RunSettings | None = None, progress: Progress | None = None
+) -> OnlinePlanner:
     """One task plan per query, re-asked with failure feedback, one step after 5 failures.
 
     ``settings`` is the run's settings tree (None: :class:`RunSettings`' defaults, which
-    ``stalm solve --planner iterative-replanning`` runs): the prompt options, whether replies
-    are constrained (``llm.constrained``, None: for the embedded model only) and the
-    sampling come from it; ``settings`` on the planner holds the method's own constants,
-    which the tree does not hold."""
-
-    name = "iterative-replanning"
-
-    def __init__(
-        self,
-        backend: LLMBackend,
-        settings: RunSettings | None = None,
-        progress: Progress | None = None,
-    ) -> None:
-        run_settings = settings or RunSettings()
-        self.backend = backend
-        self.constrained: bool = use_constraint(run_settings, backend)
-        self.options: PromptOptions = run_settings.prompt
-        self.settings = ReplanningSettings()
-        self.sampling = Sampling.of(run_settings)
-        self.progress = progress
-
-    @property
-    def occlusion(self) -> bool:
-        return self.options.occlusion_predicates
-
-    def start(self, trial: Trial) -> ReplanningRounds:
-        return ReplanningRounds(self, trial, Vocabulary.from_problem(trial.episode.problem))
+    ``stalm solve --planner iterative-replanning`` runs): the prompt options (whose occlusion
+    predicates the trial computes), whether replies are constrained (``llm.constrained``,
+    None: for the embedded model only) and the sampling come from it."""
+    run_settings = settings or RunSettings()
+    options = run_settings.prompt
+    method = Replanning(backend, use_constraint(run_settings, backend), options)
+    return OnlinePlanner(
+        "iterative-replanning",
+        run_settings,
+        method,
+        progress,
+        occlusion=options.occlusion_predicates,
+    )
 
 
 @dataclass
 class ReplanningRounds:
     """One trial's rounds: up to ``attempts_per_state`` queries at a state, then a step."""
 
-    planner: IterativeReplanningPlanner
+    planner: Replanning
     trial: Trial
     vocabulary: Vocabulary
     memory: list[FailedPlan] = field(default_factory=list)
@@ -176,8 +179,6 @@ class ReplanningRounds:
         }
 
 
-def build_iterative_replanning(
-    settings: RunSettings, progress: Progress | None
-) -> IterativeReplanningPlanner:
+def build_iterative_replanning(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
     """The registry's builder: the configured (cached) backend and prompt options."""
     return IterativeReplanningPlanner(llm_backend(settings), settings, progress)

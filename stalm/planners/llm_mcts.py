@@ -35,7 +35,6 @@ from typing import Any
 import numpy as np
 
 from stalm.domain.actions import DiscreteAction
-from stalm.domain.mdp import RewardSettings
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.progress import Progress
@@ -47,8 +46,8 @@ from stalm.search.policies import ValueFunction
 from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
 from stalm.search.search_mdp import SearchMDP
 from stalm.search.tree import Edge, SearchTree
-from stalm.settings.tree import DEFAULT_SIMS, RunSettings
-from stalm.trial.online import ConfiguredPlanner, Decision, Sampling, Trial
+from stalm.settings.tree import RunSettings
+from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import state_request_seed
 from stalm.world.problem import Problem
 from stalm.world.state import State
@@ -56,8 +55,9 @@ from stalm.world.state import State
 LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
 QueryHook = Callable[[Proposal], None]
 
-LLM_MCTS_BUDGET = DEFAULT_SIMS["llm-mcts"]
-"""N_budget of LLM-MCTS in the paper's §4.2."""
+LLM_MCTS_BUDGET = 35
+"""N_budget of LLM-MCTS in the paper's §4.2, when ``search.sims`` is None (the registry's
+row says the same for a record)."""
 
 
 @dataclass(frozen=True)
@@ -262,15 +262,6 @@ class LlmMctsSettings:
     """The search's constants with LLM-MCTS's N_budget (``search``)."""
     samples: int
     """Replies per prior (``search.batch``)."""
-    occlusion_predicates: bool
-    """Compute occlusion literals for the prompt (False when the prompt does not show them)."""
-    reuse_tree: bool
-    """Keep the executed child's subtree, and its nodes' priors, as the next step's tree
-    (the authors' loop, through the online base as every online tree planner does; the
-    settings tree's ``execution.reuse_tree``). Off: a new tree every real step whose nodes
-    ask the model anew."""
-    rewards: RewardSettings
-    """R's constants (the settings tree's ``rewards``)."""
     uniform_weight: float = 0.5
     """Weight of the uniform distribution mixed into the votes (the authors' 0.5)."""
 
@@ -278,43 +269,54 @@ class LlmMctsSettings:
     def of(cls, settings: RunSettings) -> LlmMctsSettings:
         search = settings.search
         return cls(
-            search=search.search_settings(search.budget_for(LlmMctsPlanner.name)),
+            search=search.search_settings(LLM_MCTS_BUDGET if search.sims is None else search.sims),
             samples=search.batch,
-            occlusion_predicates=settings.prompt.occlusion_predicates,
-            reuse_tree=settings.execution.reuse_tree,
-            rewards=settings.rewards,
         )
 
 
-class LlmMctsPlanner(ConfiguredPlanner):
+@dataclass(frozen=True)
+class LlmMcts:
+    """LLM-MCTS's part of a planner: the proposer its prior asks, what it reads of the
+    settings tree, where its prior reports progress; called at a trial's start, its steps."""
+
+    proposer: TaskPlanProposer
+    settings: LlmMctsSettings
+    progress: Progress | None = None
+
+    def __call__(self, trial: Trial) -> LlmMctsSteps:
+        return LlmMctsSteps(self, trial)
+
+
+def LlmMctsPlanner(
+    proposer: TaskPlanProposer,
+    settings: RunSettings | None = None,
+    progress: Progress | None = None,
+) -> OnlinePlanner:
     """LLM-MCTS run online: search from the current state, execute, repeat. ``settings`` is
     the run's settings tree (None: :class:`RunSettings`' defaults, which ``stalm solve
-    --planner llm-mcts`` runs); ``settings`` on the planner is what it reads of it."""
-
-    name = "llm-mcts"
-    settings: LlmMctsSettings
-
-    def __init__(
-        self,
-        proposer: TaskPlanProposer,
-        settings: RunSettings | None = None,
-        progress: Progress | None = None,
-    ) -> None:
-        run_settings = settings or RunSettings()
-        self.proposer = proposer
-        self.settings = LlmMctsSettings.of(run_settings)
-        self.sampling = Sampling.of(run_settings)
-        self.progress = progress
-
-    def start(self, trial: Trial) -> LlmMctsSteps:
-        return LlmMctsSteps(self, trial)
+    --planner llm-mcts`` runs); its part reads :class:`LlmMctsSettings` of it. The trial
+    computes the occlusion literals only for a prompt that shows them, and keeps the executed
+    child's subtree, with its nodes' priors, as the next step's tree with
+    ``execution.reuse_tree`` (the authors' loop, as for every online tree planner; off: a new
+    tree every real step whose nodes ask the model anew)."""
+    run_settings = settings or RunSettings()
+    view = LlmMctsSettings.of(run_settings)
+    return OnlinePlanner(
+        "llm-mcts",
+        run_settings,
+        LlmMcts(proposer, view, progress),
+        progress,
+        rewards=run_settings.rewards,
+        occlusion=run_settings.prompt.occlusion_predicates,
+        reuse_tree=run_settings.execution.reuse_tree,
+    )
 
 
 class LlmMctsSteps:
     """One trial's real steps: MCTS with the LLM prior from the current state, then execute
     its goal plan or its best root action."""
 
-    def __init__(self, planner: LlmMctsPlanner, trial: Trial) -> None:
+    def __init__(self, planner: LlmMcts, trial: Trial) -> None:
         self.planner = planner
         self.trial = trial
         settings = planner.settings
@@ -380,7 +382,7 @@ class LlmMctsSteps:
         return details
 
 
-def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> LlmMctsPlanner:
+def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
     """The registry's builder: the configured (cached) backend, the paper's prompt and budget,
     N_batch replies per prior, tree reuse as the other tree planners have it."""
     backend = llm_backend(settings)

@@ -45,32 +45,49 @@ class PlannerEntry:
     description: str
     uses_llm: bool
     build: Builder
+    sims: int | None = None
+    """N_budget when ``search.sims`` is None: STaLM's 30 (Appendix B), the baselines' 35
+    (§4.2); None: the planner runs no tree search."""
+
+    def settings_for(self, settings: RunSettings) -> RunSettings:
+        """``settings`` as this row runs them: its N_budget where ``search.sims`` is None."""
+        if self.sims is None or settings.search.sims is not None:
+            return settings
+        return replace(settings, search=replace(settings.search, sims=self.sims))
 
 
 # Each builder imports its planner's module only when a planner is built (see the module
 # docstring); the modules import nothing back from here.
 def _stalm(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.stalm import build_stalm
+    from stalm.planners.stalm import StalmPlanner, proposer_for
 
-    return build_stalm(settings, progress)
+    return StalmPlanner(proposer_for(settings), settings, progress)
 
 
 def _stalm_no_uct(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.stalm_no_uct import build_stalm_no_uct
+    """STaLM's step whose no-goal-plan part is the best plan's first action: the ablation is
+    its own row (not a flag of STaLM's settings), so a planner's name is what it is."""
+    from stalm.planners.stalm import StalmPlanner, best_prefix_first_action, proposer_for
 
-    return build_stalm_no_uct(settings, progress)
+    return StalmPlanner(
+        proposer_for(settings),
+        settings,
+        progress,
+        name="stalm-no-uct",
+        no_goal_plan=best_prefix_first_action,
+    )
 
 
 def _uct(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.uct import build_uct
+    from stalm.planners.uct import uct_planner
 
-    return build_uct(settings, progress)
+    return uct_planner("uct", settings, progress, hcount=False)
 
 
 def _uct_hcount(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.uct_hcount import build_uct_hcount
+    from stalm.planners.uct import uct_planner
 
-    return build_uct_hcount(settings, progress)
+    return uct_planner("uct-hcount", settings, progress, hcount=True)
 
 
 def _ep_saycan(settings: RunSettings, progress: Progress | None) -> Planner:
@@ -103,24 +120,28 @@ _ENTRIES: tuple[PlannerEntry, ...] = (
         "STaLM: task plans from the proposer, Concretize, warm-started hybrid UCT (N_budget 30)",
         True,
         _stalm,
+        sims=30,
     ),
     PlannerEntry(
         "stalm-no-uct",
         "STaLM without UCT (Table 3): Concretize only, then the next action of the best plan",
         True,
         _stalm_no_uct,
+        sims=30,
     ),
     PlannerEntry(
         "uct",
         "Hybrid UCT with random rollouts and no guidance (N_budget 35)",
         False,
         _uct,
+        sims=35,
     ),
     PlannerEntry(
         "uct-hcount",
         "UCT whose leaf value is Appendix C's Hcount heuristic (N_budget 35)",
         False,
         _uct_hcount,
+        sims=35,
     ),
     PlannerEntry(
         "ep-saycan",
@@ -142,6 +163,7 @@ _ENTRIES: tuple[PlannerEntry, ...] = (
         "(N_budget 35)",
         True,
         _llm_mcts,
+        sims=35,
     ),
     PlannerEntry(
         "pddlstream-adaptive",
@@ -177,7 +199,7 @@ def resolve(name: str, settings: RunSettings, problem: Problem | None = None) ->
     (:meth:`RunSettings.resolved`), and for a planner that asks a model, the backend
     ($STALM_LLM when none is named) and whether its replies are constrained. This is what a
     record keeps, so the run can be repeated from it on another machine."""
-    resolved = settings.resolved(planner_entry(name).name, problem)
+    resolved = planner_entry(name).settings_for(settings).resolved(problem)
     llm = resolved.llm
     if not asks_model(name, resolved):
         return resolved
@@ -204,4 +226,5 @@ def build_planner(
     progress: Progress | None = None,
 ) -> Planner:
     """The planner ``name`` configured by ``config`` (defaults: the paper's settings)."""
-    return planner_entry(name).build(config or RunSettings(), progress)
+    entry = planner_entry(name)
+    return entry.build(entry.settings_for(config or RunSettings()), progress)

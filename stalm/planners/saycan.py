@@ -44,7 +44,7 @@ from stalm.proposers.model_backend import llm_backend, use_constraint
 from stalm.search.puct import vote_prior
 from stalm.settings.tree import RunSettings
 from stalm.trial.episode import Episode
-from stalm.trial.online import Decision, OnlinePlanner, Sampling, Trial
+from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import query_seed
 from stalm.world.state import State
 
@@ -149,16 +149,9 @@ class DecisionTally:
 
 @dataclass(frozen=True)
 class SayCanSettings:
-    """What EP-SayCan reads of a run's settings tree -- N_batch replies per decision (the
-    paper's 5), up to ``kappa_tries`` κ draws per chosen action (the authors' 3) -- built by
-    :meth:`of`, and the method's own constants, which the tree does not hold: the replies'
-    votes mixed 0.5 with uniform (the authors' prior), the queries per state, the
-    temperature."""
+    """EP-SayCan's own constants, which the settings tree does not hold: the replies' votes
+    mixed 0.5 with uniform (the authors' prior), the queries per state, the temperature."""
 
-    n_batch: int
-    """Replies per decision (``search.batch``)."""
-    kappa_tries: int
-    """κ draws per chosen action (``execution.kappa_tries``)."""
     uniform_weight: float = 0.5
     """Weight of the uniform distribution in the LLM score; 0 scores by the votes alone."""
     max_queries_per_step: int = 3
@@ -166,35 +159,20 @@ class SayCanSettings:
     trial ends as 'no_progress' (only reachable with ``uniform_weight = 0``)."""
     temperature: float = 1.0
 
-    @classmethod
-    def of(cls, settings: RunSettings) -> SayCanSettings:
-        return cls(n_batch=settings.search.batch, kappa_tries=settings.execution.kappa_tries)
 
+@dataclass(frozen=True)
+class SayCan:
+    """EP-SayCan's part of a planner: the model, whether its replies are constrained, the run's
+    settings tree (N_batch replies per decision, ``search.batch``; κ draws per chosen action,
+    ``execution.kappa_tries``) and the method's own constants; called at a trial's start, its
+    steps (:class:`SayCanSteps`)."""
 
-class EpSayCanPlanner(OnlinePlanner):
-    """SayCan with the empirical LLM policy and precondition-and-occlusion affordance.
+    backend: LLMBackend
+    constrained: bool
+    settings: RunSettings
+    constants: SayCanSettings = SayCanSettings()
 
-    ``settings`` is the run's settings tree (None: :class:`RunSettings`' defaults, which
-    ``stalm solve --planner ep-saycan`` runs); ``settings`` on the planner is what it reads
-    of it (:class:`SayCanSettings`), and whether replies are constrained is the tree's
-    ``llm.constrained`` (None: for the embedded model only)."""
-
-    name = "ep-saycan"
-
-    def __init__(
-        self,
-        backend: LLMBackend,
-        settings: RunSettings | None = None,
-        progress: Progress | None = None,
-    ) -> None:
-        run_settings = settings or RunSettings()
-        self.backend = backend
-        self.constrained: bool = use_constraint(run_settings, backend)
-        self.settings = SayCanSettings.of(run_settings)
-        self.sampling = Sampling.of(run_settings)
-        self.progress = progress
-
-    def start(self, trial: Trial) -> SayCanSteps:
+    def __call__(self, trial: Trial) -> SayCanSteps:
         return SayCanSteps(self, trial)
 
     def decide(
@@ -213,18 +191,18 @@ class EpSayCanPlanner(OnlinePlanner):
         candidates = domain.legal_actions(state)
         history = [action.discrete for action in episode.executed]
         excluded: set[DiscreteAction] = set()
-        for attempt in range(self.settings.max_queries_per_step):
+        for attempt in range(self.constants.max_queries_per_step):
             if episode.out_of_time():
                 return None
-            say(f"step {step}: asking for {self.settings.n_batch} replies")
+            say(f"step {step}: asking for {self.settings.search.batch} replies")
             proposal = ask_for_task_plans(
                 self.backend,
                 Vocabulary.from_problem(problem),
                 saycan_prompt(problem, history),
-                self.settings.n_batch,
+                self.settings.search.batch,
                 query_seed(seed, step, attempt),
                 constrained=self.constrained,
-                temperature=self.settings.temperature,
+                temperature=self.constants.temperature,
                 deadline=episode.deadline,
             )
             episode.record_query(proposal)
@@ -232,10 +210,10 @@ class EpSayCanPlanner(OnlinePlanner):
             tally.queries += 1
             scores = saycan_scores(
                 (plan[0] for plan in proposal.plans),
-                len(proposal.replies) or self.settings.n_batch,
+                len(proposal.replies) or self.settings.search.batch,
                 candidates,
                 affordable,
-                self.settings.uniform_weight,
+                self.constants.uniform_weight,
             )
             while not episode.out_of_time():
                 best = saycan_choice(scores, rng, excluded)
@@ -259,7 +237,7 @@ class EpSayCanPlanner(OnlinePlanner):
         self, domain: Domain, state: State, action: DiscreteAction, rng: np.random.Generator
     ) -> Action | None:
         """The first of up to ``kappa_tries`` draws of ψ that is feasible, or None."""
-        for _ in range(self.settings.kappa_tries):
+        for _ in range(self.settings.execution.kappa_tries):
             drawn = domain.sample(state, action, rng)
             if not isinstance(drawn, Infeasibility):
                 return drawn
@@ -268,10 +246,10 @@ class EpSayCanPlanner(OnlinePlanner):
 
 @dataclass
 class SayCanSteps:
-    """One trial's decisions: the current state's predicates, then :meth:`EpSayCanPlanner.
-    decide`; no affordable action with a feasible κ ends the trial."""
+    """One trial's decisions: the current state's predicates, then :meth:`SayCan.decide`;
+    no affordable action with a feasible κ ends the trial."""
 
-    planner: EpSayCanPlanner
+    planner: SayCan
     trial: Trial
     tally: DecisionTally = field(default_factory=DecisionTally)
     step: int = 0
@@ -328,6 +306,21 @@ def _decision(
     }
 
 
-def build_ep_saycan(settings: RunSettings, progress: Progress | None) -> EpSayCanPlanner:
+def EpSayCanPlanner(
+    backend: LLMBackend, settings: RunSettings | None = None, progress: Progress | None = None
+) -> OnlinePlanner:
+    """SayCan with the empirical LLM policy and precondition-and-occlusion affordance.
+
+    ``settings`` is the run's settings tree (None: :class:`RunSettings`' defaults, which
+    ``stalm solve --planner ep-saycan`` runs): N_batch and κ tries come from it, and whether
+    replies are constrained is its ``llm.constrained`` (None: for the embedded model only).
+    R's constants are the domain's own and predicates include the occlusion literals (the
+    affordance reads them)."""
+    run_settings = settings or RunSettings()
+    method = SayCan(backend, use_constraint(run_settings, backend), run_settings)
+    return OnlinePlanner("ep-saycan", run_settings, method, progress)
+
+
+def build_ep_saycan(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
     """The registry's builder: the configured (cached) backend, N_batch and κ tries."""
     return EpSayCanPlanner(llm_backend(settings), settings, progress)

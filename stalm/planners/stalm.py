@@ -26,7 +26,13 @@ from typing import Any
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
-from stalm.planners.tree_step import StalmSettings, TreePlanner, begin_step, search, tree_details
+from stalm.planners.tree_step import (
+    StalmSettings,
+    begin_step,
+    search,
+    tree_details,
+    tree_planner,
+)
 from stalm.predicates.literals import GroundLiteral
 from stalm.progress import Progress
 from stalm.proposers.fast_downward import SymbolicProposer
@@ -38,14 +44,18 @@ from stalm.proposers.noisy import NoisyProposer, injected_records
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
 from stalm.search import ConcretePlan, ConcretizeResult, SearchPolicies, TaskPlan, concretize
 from stalm.settings.tree import ProposerKind, RunSettings
-from stalm.trial.online import Decision, Sampling, Trial
+from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import stalm_proposal_seed
 from stalm.trial.step_log import StepRecord, proposal_record
 
-__all__ = ["StalmPlanner", "StalmSettings", "StalmStep"]
+__all__ = ["StalmPlanner", "StalmSettings", "StalmStep", "StalmSteps"]
 
 log = logging.getLogger(__name__)
 """Each proposal round's plans and what Concretize made of them, at INFO."""
+
+N_BUDGET = 30
+"""STaLM's simulations per real step (Appendix B) when ``search.sims`` is None (the
+registry's row says the same for a record)."""
 
 NoGoalPlan = Callable[["StalmStep", list[ConcretePlan], StepRecord], tuple[Action, ...]]
 """What a step executes when no task plan reached the goal (STaLM: :func:`warm_started_search`;
@@ -259,30 +269,26 @@ def concretize_summary(concrete: ConcretizeResult) -> str:
     return "none reached the goal" + (f" ({kinds})" if kinds else "")
 
 
-class StalmPlanner(TreePlanner):
-    """STaLM with any task-plan proposer, configured by a run's settings tree.
+def best_prefix_first_action(
+    step: StalmStep, plans: list[ConcretePlan], record: StepRecord
+) -> tuple[Action, ...]:
+    """STaLM w/o UCT's decision without a goal plan (Table 3's ablation, no search after
+    Concretize): the first action of the task plan that got furthest (the first of equally
+    long ones)."""
+    record.decision = "best_prefix"
+    return max((plan.actions for plan in plans), key=len, default=())[:1]
 
-    ``settings`` is that tree (None: its defaults). The proposer given is the one that runs,
-    so it decides the tree's ``proposer.kind`` (:func:`proposer_kind`) and with it the
-    defaults that depend on the proposer (feedback and backtracks):
-    ``StalmPlanner(SymbolicProposer())`` runs what ``stalm solve --proposer symbolic`` runs.
-    """
 
-    name = "stalm"
+@dataclass(frozen=True)
+class StalmSteps:
+    """STaLM's part of a planner: the proposer, what its steps read of the settings tree and
+    what they execute without a goal plan; called at a trial's start, its steps."""
 
-    def __init__(
-        self,
-        proposer: TaskPlanProposer,
-        settings: RunSettings | None = None,
-        progress: Progress | None = None,
-    ) -> None:
-        run_settings = with_proposer_kind(settings or RunSettings(), proposer)
-        self.proposer = proposer
-        self.settings = StalmSettings.of(run_settings, self.name, proposes=True)
-        self.sampling = Sampling.of(run_settings)
-        self.progress = progress
+    proposer: TaskPlanProposer
+    settings: StalmSettings
+    no_goal_plan: NoGoalPlan = warm_started_search
 
-    def start(self, trial: Trial) -> StalmStep:
+    def __call__(self, trial: Trial) -> StalmStep:
         proposer = self.proposer
         if self.settings.feedback and not proposer.takes_feedback:
             raise StalmError(
@@ -291,11 +297,31 @@ class StalmPlanner(TreePlanner):
             )
         policies = SearchPolicies.from_settings(self.settings.search)
         account = ProposalAccount(trial, proposer)
-        return StalmStep(trial, self.settings, policies, account, self.no_goal_plan())
+        return StalmStep(trial, self.settings, policies, account, self.no_goal_plan)
 
-    def no_goal_plan(self) -> NoGoalPlan:
-        """What its step executes when no task plan reached the goal (STaLM w/o UCT: another)."""
-        return warm_started_search
+
+def StalmPlanner(
+    proposer: TaskPlanProposer,
+    settings: RunSettings | None = None,
+    progress: Progress | None = None,
+    *,
+    name: str = "stalm",
+    no_goal_plan: NoGoalPlan = warm_started_search,
+) -> OnlinePlanner:
+    """STaLM with any task-plan proposer, configured by a run's settings tree.
+
+    ``settings`` is that tree (None: its defaults). The proposer given is the one that runs,
+    so it decides the tree's ``proposer.kind`` (:func:`proposer_kind`) and with it the
+    defaults that depend on the proposer (feedback and backtracks):
+    ``StalmPlanner(SymbolicProposer())`` runs what ``stalm solve --proposer symbolic`` runs.
+    The registry builds STaLM w/o UCT with its ``name`` and :func:`best_prefix_first_action`.
+    """
+    run_settings = with_proposer_kind(settings or RunSettings(), proposer)
+    sims = run_settings.search.sims
+    budget = N_BUDGET if sims is None else sims
+    view = StalmSettings.of(run_settings, budget, proposes=True)
+    steps = StalmSteps(proposer, view, no_goal_plan)
+    return tree_planner(name, run_settings, steps, progress)
 
 
 def proposer_kind(proposer: TaskPlanProposer) -> ProposerKind:
@@ -330,8 +356,3 @@ def _plain_proposer(settings: RunSettings, kind: str) -> TaskPlanProposer:
         )
     backend = llm_backend(settings)
     return LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
-
-
-def build_stalm(settings: RunSettings, progress: Progress | None) -> StalmPlanner:
-    """The registry's builder."""
-    return StalmPlanner(proposer_for(settings), settings, progress)

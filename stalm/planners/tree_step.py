@@ -24,11 +24,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, cast
 
-from stalm.domain.mdp import Domain, RewardSettings
+from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
+from stalm.progress import Progress
 from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
 from stalm.settings.tree import ExecutionRule, RunSettings
-from stalm.trial.online import ConfiguredPlanner, Decision, Trial
+from stalm.trial.online import Decision, OnlinePlanner, StartSteps, Trial
 from stalm.trial.step_log import DECISIONS, StepRecord, tree_record, warm_edges
 from stalm.world.state import State
 
@@ -46,8 +47,6 @@ class StalmSettings:
     """N_batch (``search.batch``)."""
     search: SearchSettings
     """The search's constants with this planner's N_budget (``search``)."""
-    reuse_tree: bool
-    """``execution.reuse_tree``."""
     feedback: bool
     """Geometric feedback (``execution.feedback``, resolved; never for UCT)."""
     feedback_rounds: int
@@ -62,24 +61,16 @@ class StalmSettings:
     """``execution.kappa_tries``."""
     backtracks: int
     """``execution.backtracks``, resolved."""
-    rewards: RewardSettings
-    """R's constants (``rewards``)."""
-    occlusion_predicates: bool
-    """Compute PickOccludedBy/PlaceOccludedBy: for the prompt (False for Table 4's arms whose
-    prompt does not show them, so those arms do not pay for motion planning they never use)
-    or for Hcount (always on for UCT-with-Hcount)."""
 
     @classmethod
-    def of(cls, settings: RunSettings, planner: str, *, proposes: bool) -> StalmSettings:
-        """The settings tree planner ``planner`` reads from ``settings`` (a planner that
-        ``proposes`` no task plans -- UCT -- gets no feedback; UCT-with-Hcount always
-        computes the occlusion predicates its heuristic reads)."""
+    def of(cls, settings: RunSettings, budget: int, *, proposes: bool) -> StalmSettings:
+        """What a tree planner with N_budget ``budget`` reads from ``settings`` (a planner that
+        ``proposes`` no task plans -- UCT -- gets no feedback)."""
         feedback = settings.feedback()
         execution = settings.execution
         return cls(
             n_batch=settings.search.batch,
-            search=settings.search.search_settings(settings.search.budget_for(planner)),
-            reuse_tree=execution.reuse_tree,
+            search=settings.search.search_settings(budget),
             feedback=feedback and proposes,
             feedback_rounds=execution.feedback_rounds,
             search_rounds=execution.search_rounds,
@@ -87,23 +78,36 @@ class StalmSettings:
             execution=execution.rule,
             kappa_tries=execution.kappa_tries,
             backtracks=execution.backtracks_for(feedback),
-            rewards=settings.rewards,
-            # the symbolic proposer plans with occlusions whatever the prompt options say,
-            # the noisy one needs them to drop the step that clears an occluder, and Hcount
-            # reads them at every leaf
-            occlusion_predicates=(
-                planner == "uct-hcount"
-                or settings.proposer.kind != "llm"
-                or settings.prompt.occlusion_predicates
-            ),
         )
 
 
-class TreePlanner(ConfiguredPlanner):
-    """An online planner configured by :class:`StalmSettings` (STaLM, UCT and their
-    variants): R's constants, the occlusion predicates and tree reuse come from there."""
-
-    settings: StalmSettings
+def tree_planner(
+    name: str,
+    settings: RunSettings,
+    start: StartSteps,
+    progress: Progress | None,
+    *,
+    leaf_occlusion: bool = False,
+) -> OnlinePlanner:
+    """The online loop around a tree planner's steps, with the tree's R and tree reuse. The
+    trial computes PickOccludedBy/PlaceOccludedBy for the prompt (not for Table 4's arms whose
+    prompt does not show them, so those arms do not pay for motion planning they never use),
+    for the symbolic proposer (which plans with occlusions whatever the prompt options say),
+    for the noisy one (which needs them to drop the step that clears an occluder) and for a
+    leaf value that reads them (``leaf_occlusion``: Hcount)."""
+    return OnlinePlanner(
+        name,
+        settings,
+        start,
+        progress,
+        rewards=settings.rewards,
+        occlusion=(
+            leaf_occlusion
+            or settings.proposer.kind != "llm"
+            or settings.prompt.occlusion_predicates
+        ),
+        reuse_tree=settings.execution.reuse_tree,
+    )
 
 
 @dataclass
@@ -145,12 +149,12 @@ def tree_details(
     return {
         "proposer": None,
         "settings": {
-            "reuse_tree": settings.reuse_tree,
+            "reuse_tree": trial.reuse_tree,
             "feedback": settings.feedback,
             "execution": settings.execution,
             "kappa_tries": settings.kappa_tries,
             "backtracks": settings.backtracks,
-            "goal_atom_lost": settings.rewards.goal_atom_lost,
+            "goal_atom_lost": trial.domain.reward_settings.goal_atom_lost,
         },
         "proposals": 0,
         "feedback_steps_learned": 0,

@@ -1,44 +1,66 @@
-"""UCT (§4.2's baseline): STaLM's online hybrid search with no task plans to warm it.
+"""UCT and UCT-with-Hcount (§4.2, Appendix C): STaLM's online hybrid search with no task plans.
 
-Each real step runs UCT over κ with progressive widening and random rollouts from the current
-state (Algorithms 3–5 with an empty warm start), N_budget = 35 simulations, and executes the
-tree's goal plan or the root action the execution rule picks (:class:`~stalm.planners.
-tree_step.SearchStep`, the step STaLM runs after Concretize). No language model, no
-predicates.
+Each real step runs UCT over κ with progressive widening from the current state (Algorithms
+3–5 with an empty warm start), N_budget = 35 simulations, and executes the tree's goal plan or
+the root action the execution rule picks (:class:`~stalm.planners.tree_step.SearchStep`, the
+step STaLM runs after Concretize). No language model. Plain UCT values a new leaf by a random
+rollout and computes no predicates; UCT-with-Hcount values it by Appendix C's Hcount
+(:class:`~stalm.search.hcount.HcountLeafValue`), which reads the occlusion predicates of every
+leaf, so that planner always computes them, from the trial's one predicate memo (each leaf
+brought forward from its parent).
 """
 
 from __future__ import annotations
 
-from stalm.planners.tree_step import SearchStep, StalmSettings, TreePlanner
+from dataclasses import dataclass, replace
+from typing import Any
+
+from stalm.planners.tree_step import SearchStep, StalmSettings, tree_planner
 from stalm.progress import Progress
 from stalm.search import SearchPolicies
+from stalm.search.hcount import HcountLeafValue
 from stalm.settings.tree import RunSettings
-from stalm.trial.online import Sampling, Trial
+from stalm.trial.online import OnlinePlanner, Trial
+
+N_BUDGET = 35
+"""The baselines' simulations per real step (§4.2) when ``search.sims`` is None (the
+registry's rows say the same for a record)."""
 
 
-class UctPlanner(TreePlanner):
-    """Plain hybrid UCT run online (the 'uct' row), configured by a run's settings tree
-    (None: :class:`RunSettings`' defaults, which ``stalm solve --planner uct`` runs); of it,
-    the proposer's part (N_batch, feedback, κ tries, backtracks) does not apply."""
+@dataclass(frozen=True)
+class UctSteps:
+    """UCT's part of a planner: its search's settings and its leaf value (a random rollout,
+    or Hcount); called at a trial's start, its steps."""
 
-    name = "uct"
+    settings: StalmSettings
+    hcount: bool = False
 
-    def __init__(
-        self, settings: RunSettings | None = None, progress: Progress | None = None
-    ) -> None:
-        run_settings = settings or RunSettings()
-        self.settings = StalmSettings.of(run_settings, self.name, proposes=False)
-        self.sampling = Sampling.of(run_settings)
-        self.progress = progress
-
-    def policies(self, trial: Trial) -> SearchPolicies:
-        """The search's policies: UCT's, with random rollouts at new leaves."""
-        return SearchPolicies.from_settings(self.settings.search)
-
-    def start(self, trial: Trial) -> SearchStep:
-        return SearchStep(trial, self.settings, self.policies(trial))
+    def __call__(self, trial: Trial) -> SearchStep:
+        policies = SearchPolicies.from_settings(self.settings.search)
+        if not self.hcount:
+            return SearchStep(trial, self.settings, policies)
+        leaves = HcountLeafValue(trial.episode.problem, trial.memo)
+        hcount = replace(policies, value=leaves)
+        return SearchStep(trial, self.settings, hcount, lambda: hcount_details(leaves))
 
 
-def build_uct(settings: RunSettings, progress: Progress | None) -> UctPlanner:
-    """The registry's builder."""
-    return UctPlanner(settings, progress)
+def hcount_details(leaves: HcountLeafValue) -> dict[str, Any]:
+    """How the leaves' predicates were made, for the trial's details."""
+    return {
+        "hcount_leaves": {
+            "predicates_from_scratch": leaves.computed_from_scratch,
+            "predicates_brought_forward": leaves.brought_forward,
+        }
+    }
+
+
+def uct_planner(
+    name: str, settings: RunSettings, progress: Progress | None, *, hcount: bool
+) -> OnlinePlanner:
+    """UCT run online (the 'uct' row; with ``hcount``, the 'uct-hcount' row) configured by a
+    run's settings tree; of it, the proposer's part (N_batch, feedback, κ tries, backtracks)
+    does not apply."""
+    sims = settings.search.sims
+    budget = N_BUDGET if sims is None else sims
+    view = StalmSettings.of(settings, budget, proposes=False)
+    return tree_planner(name, settings, UctSteps(view, hcount), progress, leaf_occlusion=hcount)

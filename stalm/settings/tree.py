@@ -42,16 +42,6 @@ NoiseKind = Figure5Kind
 NOISE_KINDS: tuple[NoiseKind, ...] = FIGURE5_KINDS
 """Figure 5's three kinds of task-plan error, in the order of ``proposer.noise.weights``."""
 
-DEFAULT_SIMS: dict[str, int] = {
-    "stalm": 30,
-    "stalm-no-uct": 30,
-    "uct": 35,
-    "uct-hcount": 35,
-    "llm-mcts": 35,
-}
-"""N_budget when ``search.sims`` is None: STaLM's 30 (Appendix B), the baselines' 35 (§4.2).
-Planners that run no tree search have no entry."""
-
 FEEDBACK_BACKTRACKS = 6
 """``execution.backtracks`` when it is None and geometric feedback is on (0 without)."""
 
@@ -124,7 +114,7 @@ class SearchSection:
     """
 
     sims: int | None = None
-    """N_budget, simulations per real step; None: the planner's (:data:`DEFAULT_SIMS`)."""
+    """N_budget, simulations per real step; None: the planner's (its row of the registry)."""
     batch: int = 5
     """N_batch: task plans (replies) per query."""
     c: float = _PAPER_SEARCH.c
@@ -143,12 +133,6 @@ class SearchSection:
             self,
         )
         self.search_settings(1)  # c, k, alpha, gamma and horizon: checked by the search layer
-
-    def budget_for(self, planner: str) -> int:
-        """N_budget of ``planner``: ``sims``, else the planner's default."""
-        if self.sims is not None:
-            return self.sims
-        return DEFAULT_SIMS.get(planner, DEFAULT_SIMS["stalm"])
 
     def search_settings(self, budget: int) -> SearchSettings:
         """The search layer's settings with N_budget ``budget``."""
@@ -332,18 +316,15 @@ class RunSettings:
         """Whether geometric feedback is on in this run."""
         return self.execution.feedback_for(self.proposer)
 
-    def resolved(self, planner: str, problem: Problem | None = None) -> RunSettings:
+    def resolved(self, problem: Problem | None = None) -> RunSettings:
         """This tree with every None that :class:`RunSettings` decides replaced by the value
-        ``planner`` (on ``problem``, for the budget and the predicates' scope) runs with.
-        Resolving twice changes nothing; the language model's Nones are the registry's (it
-        knows which planners ask one)."""
+        the run (on ``problem``, for the budget and the predicates' scope) uses. Resolving
+        twice changes nothing; N_budget's and the language model's Nones are the registry's
+        (it knows each planner's budget and which planners ask a model)."""
         feedback = self.feedback()
         execution = replace(
             self.execution, feedback=feedback, backtracks=self.execution.backtracks_for(feedback)
         )
-        sims = self.search.sims
-        if sims is None and planner in DEFAULT_SIMS:
-            sims = DEFAULT_SIMS[planner]
         budget = self.budget
         predicates = self.predicates
         if problem is not None:
@@ -359,7 +340,6 @@ class RunSettings:
         return replace(
             self,
             budget=budget,
-            search=replace(self.search, sims=sims),
             execution=execution,
             predicates=predicates,
         )

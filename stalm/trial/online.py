@@ -5,11 +5,12 @@ Iterative-Replanning, LLM-MCTS) all run the same trial: start one wall-clock dea
 simulator, repeatedly decide what to execute in the current state and execute it, stop at the
 goal, the horizon or the deadline (also when it passes during a predicate computation, which
 the deadline bounds), and replay the executed plan in a fresh scene before it
-counts (:meth:`Episode.finish`). :class:`OnlinePlanner` is that trial; a method is a subclass
-that says what it decides (:class:`Decider`). :class:`Trial` is what a decision may use: the
-domain, the bookkeeping (:class:`~stalm.trial.episode.Episode`), the one predicate memo of
-the trial (:class:`~stalm.predicates.memo.PredicateMemo`), the seeded generator, the
-search tree kept between real steps, phase timing and progress messages.
+counts (:meth:`Episode.finish`). :class:`OnlinePlanner` is that trial; a method is the part
+that says what it decides (:class:`Decider`, made by the planner's ``start``). :class:`Trial`
+is what a decision may use: the domain, the bookkeeping
+(:class:`~stalm.trial.episode.Episode`), the one predicate memo of the trial
+(:class:`~stalm.predicates.memo.PredicateMemo`), the seeded generator, the search tree kept
+between real steps, phase timing and progress messages.
 """
 
 from __future__ import annotations
@@ -17,21 +18,18 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from abc import ABC, abstractmethod
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
 from stalm.domain.mdp import Domain, RewardSettings
 from stalm.domain.params import Action
-from stalm.domain.samplers import SamplerSettings
 from stalm.predicates.deadline import DeadlinePassed
 from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.memo import PredicateMemo
-from stalm.predicates.samples import PredicateSettings
 from stalm.progress import Progress, observer_of
 from stalm.search import SearchSettings, SearchTree
 from stalm.settings.tree import RunSettings
@@ -48,20 +46,6 @@ log = logging.getLogger(__name__)
 Decision = tuple[Action, ...] | str
 """What a decision returns: the actions to execute now (none: decide again from the same
 state), or a termination ('timeout', 'no_progress') that ends the trial."""
-
-
-@dataclass(frozen=True)
-class Sampling:
-    """How a trial's domain draws κ (ψ's tries) and its predicate engine samples motions:
-    the settings tree's ``samplers`` and ``predicates`` sections, for every online planner
-    (a view of the tree, which holds their defaults: :meth:`of`)."""
-
-    samplers: SamplerSettings
-    predicates: PredicateSettings
-
-    @classmethod
-    def of(cls, settings: RunSettings) -> Sampling:
-        return cls(settings.samplers, settings.predicates)
 
 
 @dataclass
@@ -138,7 +122,7 @@ class Trial:
 
 
 class Decider(Protocol):
-    """One method's decisions within one trial (made by :meth:`OnlinePlanner.start`)."""
+    """One method's decisions within one trial (made by :attr:`OnlinePlanner.start`)."""
 
     def decide(self) -> Decision:
         """What to do in the trial's current state."""
@@ -149,34 +133,28 @@ class Decider(Protocol):
         ...
 
 
-class OnlinePlanner(ABC):
-    """A planner that acts online: subclasses name the method and make its :class:`Decider`.
+StartSteps = Callable[[Trial], Decider]
+"""A method's part of a planner: its decisions for a trial that starts now."""
 
-    A subclass has a ``progress`` and a ``sampling`` attribute (the latter
-    :meth:`Sampling.of` the run's settings tree); it may override
-    :attr:`rewards` (R's constants), :attr:`occlusion` (whether the trial's predicates include
-    the occlusion literals, which cost motion planning) and :attr:`reuse_tree`.
-    """
 
-    name: ClassVar[str]
-    progress: Progress | None
-    sampling: Sampling
+@dataclass(frozen=True)
+class OnlinePlanner:
+    """A planner that acts online, composed: the loop of every online method around one
+    method's :class:`Decider` (made by ``start``), configured by the run's settings tree.
 
-    @property
-    def rewards(self) -> RewardSettings:
-        return RewardSettings()
+    The tree's ``samplers`` and ``predicates`` sections configure the trial's domain and
+    predicate engine; the method says what else its trials look like: R's constants
+    (``rewards``), whether the predicates include the occlusion literals (``occlusion``, which
+    cost motion planning) and whether the executed child's subtree is the next step's tree
+    (``reuse_tree``)."""
 
-    @property
-    def occlusion(self) -> bool:
-        return True
-
-    @property
-    def reuse_tree(self) -> bool:
-        return False
-
-    @abstractmethod
-    def start(self, trial: Trial) -> Decider:
-        """The method's decisions for a trial that starts now."""
+    name: str
+    settings: RunSettings
+    start: StartSteps
+    progress: Progress | None = None
+    rewards: RewardSettings = field(default_factory=RewardSettings)
+    occlusion: bool = True
+    reuse_tree: bool = False
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
         """Plan and execute until the goal, the horizon or the time budget (None: the
@@ -198,7 +176,7 @@ class OnlinePlanner(ABC):
                 domain = Domain(
                     problem,
                     Sim(problem.spec, stop=episode.out_of_time),
-                    sampler_settings=self.sampling.samplers,
+                    sampler_settings=self.settings.samplers,
                     reward_settings=self.rewards,
                 )
         except SceneAbandoned:
@@ -227,7 +205,7 @@ class OnlinePlanner(ABC):
             episode.problem,
             domain.sim,
             domain.base_planner,
-            self.sampling.predicates,
+            self.settings.predicates,
             occlusion=self.occlusion,
         )
         episode.keep_predicates(engine)
@@ -242,38 +220,6 @@ class OnlinePlanner(ABC):
             trial.say("the deadline passed while the trial was set up")
             return trial, None
         return trial, self.start(trial)
-
-
-class MethodSettings(Protocol):
-    """What a method's own settings say about the trial (STaLM's, UCT's, LLM-MCTS's)."""
-
-    @property
-    def rewards(self) -> RewardSettings: ...
-
-    @property
-    def occlusion_predicates(self) -> bool: ...
-
-    @property
-    def reuse_tree(self) -> bool: ...
-
-
-class ConfiguredPlanner(OnlinePlanner):
-    """An online planner whose ``settings`` give R's constants, the occlusion predicates and
-    tree reuse, read here once for every method configured that way."""
-
-    settings: MethodSettings
-
-    @property
-    def rewards(self) -> RewardSettings:
-        return self.settings.rewards
-
-    @property
-    def occlusion(self) -> bool:
-        return self.settings.occlusion_predicates
-
-    @property
-    def reuse_tree(self) -> bool:
-        return self.settings.reuse_tree
 
 
 def run(trial: Trial, decider: Decider) -> str:

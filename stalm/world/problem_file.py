@@ -92,10 +92,16 @@ def _first_boolean(data: object, loc: tuple[object, ...] = ()) -> str | None:
     return found[0] + more
 
 
-def parse_problem(data: object, source: str = "<problem>", base: Path | None = None) -> ProblemSpec:
-    """Validate already-loaded problem data; errors name ``source`` and the field. A mesh
-    object's relative file path resolves against ``base`` (the problem file's folder; the
-    working folder if None)."""
+def parse_problem(
+    data: object,
+    source: str = "<problem>",
+    spec: type[ProblemSpec] = ProblemSpec,
+    base: Path | None = None,
+) -> ProblemSpec:
+    """Validate already-loaded problem data; errors name ``source`` and the field. ``spec``
+    may be a narrower or looser kind of problem (a generator's layout: one without objects)
+    validated by the same rules and reported the same way. A mesh object's relative file path
+    resolves against ``base`` (the problem file's folder; the working folder if None)."""
     if not isinstance(data, dict):
         kind = "text" if isinstance(data, str) else type(data).__name__
         raise StalmError(f"{source}: a problem file must be a mapping of fields, got {kind}")
@@ -108,7 +114,7 @@ def parse_problem(data: object, source: str = "<problem>", base: Path | None = N
     if boolean is not None:
         raise StalmError(f"{source}: {boolean}")
     try:
-        return ProblemSpec.model_validate(data, context={MESH_BASE_CONTEXT: base})
+        return spec.model_validate(data, context={MESH_BASE_CONTEXT: base})
     except ValidationError as error:
         raise StalmError(format_validation_error(source, error)) from None
 
@@ -118,4 +124,4 @@ def load_problem_file(path: Path) -> ProblemSpec:
     :data:`~stalm.files.MAX_PROBLEM_FILE_BYTES`)."""
     text = read_text(path, MAX_PROBLEM_FILE_BYTES, "problem file")
     data = load_yaml(text, str(path))
-    return parse_problem(data, str(path), path.parent)
+    return parse_problem(data, str(path), base=path.parent)

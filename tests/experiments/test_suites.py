@@ -73,10 +73,10 @@ def test_table4_arms_compute_and_constrain_only_what_their_prompt_shows() -> Non
         planner = build_planner(arm.planner, arm.config)
         prompt = arm.config.prompt
         # the predicate engine plans occlusions only for a prompt that shows them
-        assert planner.settings.occlusion_predicates is prompt.occlusion_predicates, arm.label
-        assert planner.proposer.options == prompt, arm.label
+        assert planner.occlusion is prompt.occlusion_predicates, arm.label
+        assert planner.start.proposer.options == prompt, arm.label
     hcount = build_planner("uct-hcount", plan.arms[-1].config)
-    assert hcount.settings.occlusion_predicates, "Hcount needs occlusions whatever the prompt"
+    assert hcount.occlusion, "Hcount needs occlusions whatever the prompt"
 
 
 def test_changing_the_budget_changes_the_trial_key_but_not_the_cache_mode() -> None:

@@ -18,8 +18,8 @@ from stalm.llm.cache import CachedBackend
 from stalm.llm.cache_file import ReplyCache
 from stalm.llm.prompt import PromptOptions
 from stalm.planners.llm_mcts import (
+    LlmMcts,
     LlmMctsPlanner,
-    LlmMctsSettings,
     LLMPrior,
     build_llm_mcts,
     llm_mcts_policies,
@@ -246,21 +246,22 @@ def test_same_seed_and_replies_give_the_same_search_also_replayed_from_the_cache
 
 def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
     planner = build_planner("llm-mcts", settings_of(llm="http://127.0.0.1:9/v1#m"))
-    assert isinstance(planner, LlmMctsPlanner) and planner.name == "llm-mcts"
-    assert planner.settings.search.budget == 35 and planner.settings.search.c == 50.0
-    assert planner.settings.samples == 5 and planner.settings.uniform_weight == 0.5
+    method = planner.start
+    assert isinstance(method, LlmMcts) and planner.name == "llm-mcts"
+    assert method.settings.search.budget == 35 and method.settings.search.c == 50.0
+    assert method.settings.samples == 5 and method.settings.uniform_weight == 0.5
     custom = build_llm_mcts(settings_of(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3), None)
-    assert custom.settings.search.budget == 7 and custom.settings.samples == 3
-    assert planner.settings.occlusion_predicates
+    assert isinstance(custom.start, LlmMcts)
+    assert custom.start.settings.search.budget == 7 and custom.start.settings.samples == 3
+    assert planner.occlusion
     no_occlusion = settings_of(llm="http://127.0.0.1:9/v1#m", prompt__occlusion_predicates=False)
-    assert not build_llm_mcts(no_occlusion, None).settings.occlusion_predicates
+    assert not build_llm_mcts(no_occlusion, None).occlusion
 
 
 def test_llm_mcts_reuses_the_tree_by_the_one_setting_of_every_tree_planner() -> None:
     """Tree reuse (issue 13) is on for LLM-MCTS as for STaLM and UCT, and the same setting
     (execution.reuse_tree, --set reuse_tree=false) switches it off for all of them."""
     model = settings_of(llm="http://127.0.0.1:9/v1#m")
-    assert LlmMctsSettings.of(RunSettings()).reuse_tree
     for name in ("llm-mcts", "stalm", "uct", "uct-hcount"):
         assert build_planner(name, model).reuse_tree, name
         off = settings_of(llm="http://127.0.0.1:9/v1#m", reuse_tree=False)

@@ -9,7 +9,11 @@ import numpy as np
 from stalm.domain.actions import Open, Pick, Place
 from stalm.llm.feedback_prompt import FailedPlan, feedback_text, format_plan, with_feedback
 from stalm.llm.prompt import Prompt
-from stalm.planners.iterative_replanning import IterativeReplanningPlanner, failed_plan
+from stalm.planners.iterative_replanning import (
+    IterativeReplanningPlanner,
+    Replanning,
+    failed_plan,
+)
 from stalm.planners.registry import build_planner
 from stalm.search import TaskPlan, concretize
 from stalm.trial.replay import replay_result_json
@@ -144,5 +148,5 @@ def test_replanning_solves_p2_after_one_failed_plan_is_fed_back(problems) -> Non
 
 def test_the_registry_builds_iterative_replanning() -> None:
     planner = build_planner("iterative-replanning", settings_of(llm="embedded", cache_mode="off"))
-    assert isinstance(planner, IterativeReplanningPlanner)
-    assert planner.name == "iterative-replanning" and planner.settings.attempts_per_state == 5
+    assert isinstance(planner.start, Replanning)
+    assert planner.name == "iterative-replanning" and planner.start.settings.attempts_per_state == 5

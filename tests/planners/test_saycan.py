@@ -18,6 +18,7 @@ from stalm.planners.registry import build_planner
 from stalm.planners.saycan import (
     DecisionTally,
     EpSayCanPlanner,
+    SayCan,
     SayCanScore,
     affordance,
     occlusion_free,
@@ -36,6 +37,13 @@ A, B, C, D = Pick("bottle1"), Pick("bottle2"), Open("kitchen_door"), Pick("salte
 
 def _score_of(scores: tuple[SayCanScore, ...], action: DiscreteAction) -> SayCanScore:
     return next(s for s in scores if s.action == action)
+
+
+def saycan_of(backend: ScriptedReplyBackendDouble) -> SayCan:
+    """EP-SayCan's part of the planner the API builds for ``backend`` (its decisions)."""
+    method = EpSayCanPlanner(backend).start
+    assert isinstance(method, SayCan)
+    return method
 
 
 def test_llm_score_is_the_votes_mixed_half_with_uniform_times_affordance() -> None:
@@ -146,7 +154,7 @@ def test_replies_naming_only_an_occluded_action_still_let_an_affordable_one_run(
     backend = ScriptedReplyBackendDouble(
         queue=[[plan_reply([Pick("salter"), Open("kitchen_door")])]]
     )
-    planner = EpSayCanPlanner(backend)
+    planner = saycan_of(backend)
     episode = Episode.begin(problems["P2"], 120.0)
     tally = DecisionTally()
     domain = KappaDomainDouble([D, A, C], stuck=set())
@@ -166,7 +174,10 @@ def test_votes_only_asks_again_then_ends_as_no_progress(problems) -> None:
     )
     planner = EpSayCanPlanner(backend)
     # votes only: a constant of the method's own, which the settings tree does not hold
-    planner.settings = replace(planner.settings, uniform_weight=0.0)
+    saycan = planner.start
+    assert isinstance(saycan, SayCan)
+    votes_only = replace(saycan, constants=replace(saycan.constants, uniform_weight=0.0))
+    planner = replace(planner, start=votes_only)
     result = planner.solve(problems["P2"], seed=0, time_budget_s=120.0)
     assert result.termination == "no_progress" and not result.success and result.plan == ()
     assert result.counters.llm_calls == 3 and len(backend.requests) == 3
@@ -181,7 +192,7 @@ def test_votes_only_asks_again_then_ends_as_no_progress(problems) -> None:
 def test_with_nothing_affordable_left_the_trial_ends_without_asking_again(problems) -> None:
     backend = ScriptedReplyBackendDouble(queue=[[plan_reply([A])]])
     domain = KappaDomainDouble([A, D], stuck={A})  # A has no κ, D is occluded
-    planner = EpSayCanPlanner(backend)
+    planner = saycan_of(backend)
     tally = DecisionTally()
     episode = Episode.begin(problems["P2"], 60.0)
     chosen = planner.decide(
@@ -215,8 +226,8 @@ def test_saycan_solves_p2_when_the_replies_name_the_right_next_action(problems) 
 
 def test_the_registry_builds_ep_saycan_with_the_configured_batch() -> None:
     planner = build_planner("ep-saycan", settings_of(llm="embedded", batch=3, cache_mode="off"))
-    assert isinstance(planner, EpSayCanPlanner)
-    assert planner.name == "ep-saycan" and planner.settings.n_batch == 3
+    assert isinstance(planner.start, SayCan)
+    assert planner.name == "ep-saycan" and planner.start.settings.search.batch == 3
 
 
 class KappaDomainDouble:
@@ -246,7 +257,7 @@ def test_an_action_without_feasible_kappa_is_excluded_after_three_draws_and_the_
     # three replies start with pick(bottle1), two with open; ψ never finds κ for pick(bottle1)
     backend = ScriptedReplyBackendDouble(queue=[[plan_reply([A])] * 3 + [plan_reply([C])] * 2])
     domain = KappaDomainDouble([A, C], stuck={A})
-    planner = EpSayCanPlanner(backend)
+    planner = saycan_of(backend)
     episode = Episode.begin(problems["P2"], 60.0)
     tally = DecisionTally()
     chosen = planner.decide(domain, episode, [], 0, 0, np.random.default_rng(0), tally)  # type: ignore[arg-type]

@@ -11,8 +11,8 @@ from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.mdp import Domain
 from stalm.errors import StalmError
 from stalm.experiments.trap_check import trap_violations
+from stalm.planners.registry import build_planner
 from stalm.planners.stalm import StalmPlanner
-from stalm.planners.uct import UctPlanner
 from stalm.proposers.protocol import Proposal, ProposalRequest
 from stalm.search import SearchSettings, SearchTree, TaskPlan, concretize, warm_started_uct
 from stalm.trial.replay import replay_plan, replay_result_json
@@ -135,7 +135,7 @@ def test_same_seed_and_proposer_give_the_identical_plan(problems) -> None:
 
 
 def test_plain_uct_runs_the_same_loop_without_a_model(problems) -> None:
-    planner = UctPlanner(plain_settings(5))
+    planner = build_planner("uct", plain_settings(5))
     result = planner.solve(problems["P2"], seed=0, time_budget_s=8.0)
     assert planner.name == "uct" and result.planner == "uct"
     assert result.counters.llm_calls == 0 and result.counters.simulations > 0
@@ -149,12 +149,12 @@ def test_the_executed_childs_subtree_is_kept_between_steps_and_can_be_switched_o
 ) -> None:
     """Tree reuse: every real step after the first starts from a root that already has the
     visits the last step's search gave it; with reuse off, each step starts from nothing."""
-    kept = UctPlanner(plain_settings(6))
+    kept = build_planner("uct", plain_settings(6))
     result = kept.solve(problems["P2"], seed=1, time_budget_s=20.0)
     reused = result.details["reused_root_visits"]
     assert len(result.plan) >= 2 and reused
     assert all(visits > 0 for visits in reused)
-    fresh = UctPlanner(plain_settings(6, ("execution.reuse_tree", False)))
+    fresh = build_planner("uct", plain_settings(6, ("execution.reuse_tree", False)))
     assert (
         fresh.solve(problems["P2"], seed=1, time_budget_s=8.0).details["reused_root_visits"] == []
     )
@@ -227,12 +227,12 @@ def test_the_progress_rule_searches_on_a_counted_number_of_times_then_falls_back
     so 'progress' searches on exactly ``search_rounds`` times and then executes the best-Q
     root action: a count, so the same seed decides the same on a fast or a slow machine."""
     settings = plain_settings(1, ("execution.rule", "progress"), ("execution.search_rounds", 3))
-    result = UctPlanner(settings).solve(problems["P2"], seed=0, time_budget_s=10.0)
+    result = build_planner("uct", settings).solve(problems["P2"], seed=0, time_budget_s=10.0)
     first = result.details["step_log"][0]
     assert first["decision"] == "best_q_fallback"
     assert first["searches"] == 3
     assert first["tree"]["root_visits"] == 3
-    again = UctPlanner(settings).solve(problems["P2"], seed=0, time_budget_s=10.0)
+    again = build_planner("uct", settings).solve(problems["P2"], seed=0, time_budget_s=10.0)
     assert result.plan and again.plan and again.plan[0] == result.plan[0]
 
 

@@ -40,13 +40,13 @@ def test_a_threshold_that_is_no_count_is_refused(value) -> None:
 def test_the_resolved_settings_say_it_and_p1_to_p6_keep_the_papers() -> None:
     clutter = load_problem(CLUTTER)
     low = with_values(RunSettings(), [("predicates.relevant_above", 30)], "test")
-    assert low.resolved("stalm", clutter).predicates.relevant_only
-    assert not RunSettings().resolved("stalm", clutter).predicates.relevant_only
+    assert low.resolved(clutter).predicates.relevant_only
+    assert not RunSettings().resolved(clutter).predicates.relevant_only
     for name in ("P1", "P2", "P3", "P4", "P5", "P6"):
-        resolved = RunSettings().resolved("stalm", load_problem(name))
+        resolved = RunSettings().resolved(load_problem(name))
         assert not resolved.predicates.relevant_only, name
     off = with_values(RunSettings(), [("predicates.relevant_above", None)], "test")
-    assert not off.resolved("stalm", clutter).predicates.relevant_only
+    assert not off.resolved(clutter).predicates.relevant_only
 
 
 def test_a_solve_says_so_in_one_line_and_records_it(monkeypatch, capsys, tmp_path) -> None:

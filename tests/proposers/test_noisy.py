@@ -15,8 +15,7 @@ from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility
 from stalm.errors import StalmError
 from stalm.planners.registry import asks_model, build_planner, resolve
-from stalm.planners.stalm import StalmPlanner
-from stalm.planners.tree_step import StalmSettings
+from stalm.planners.stalm import StalmPlanner, StalmSteps
 from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.feedback import FailedStep
@@ -295,8 +294,8 @@ def test_the_settings_build_the_noisy_proposer_without_a_model() -> None:
         ],
     )
     planner = build_planner("stalm", settings)
-    assert isinstance(planner, StalmPlanner)
-    proposer = planner.proposer
+    assert isinstance(planner.start, StalmSteps)
+    proposer = planner.start.proposer
     assert isinstance(proposer, NoisyProposer) and isinstance(proposer.inner, SymbolicProposer)
     assert (proposer.rate, proposer.weights) == (0.25, (1.0, 2.0, 0.0))
     assert not asks_model("stalm", settings) and not asks_model("stalm-no-uct", settings)
@@ -304,15 +303,15 @@ def test_the_settings_build_the_noisy_proposer_without_a_model() -> None:
     # occlusion literals are computed whatever the prompt says: the corruptions need them
     resolved = resolve("stalm", settings)
     assert (resolved.execution.feedback, resolved.execution.backtracks) == (False, 0)
-    assert planner.settings.feedback is False
-    assert StalmSettings.of(settings, "stalm", proposes=True).occlusion_predicates
+    assert planner.start.settings.feedback is False
+    assert planner.occlusion
     on = with_overrides(settings, ["execution.feedback=true"])
-    assert build_planner("stalm", on).settings.feedback is True
+    assert build_planner("stalm", on).start.settings.feedback is True
     llm = with_overrides(
         settings, ["proposer.noise.inner=llm", "llm.backend=http://127.0.0.1:9/v1#m"]
     )
     assert asks_model("stalm", llm)
-    assert build_planner("stalm", llm).proposer.inner.name.startswith("llm:")
+    assert build_planner("stalm", llm).start.proposer.inner.name.startswith("llm:")
 
 
 def test_a_stalm_trial_records_what_was_injected(problems) -> None:

@@ -7,7 +7,7 @@ import pytest
 
 from stalm.domain.actions import Open, Pick, Place
 from stalm.domain.outcome import Infeasibility
-from stalm.planners.uct_hcount import UctHcountPlanner
+from stalm.planners.registry import build_planner
 from stalm.predicates.engine import PredicateEngine, PredicateSettings
 from stalm.predicates.literals import GroundLiteral as L
 from stalm.search.hcount import (
@@ -85,7 +85,7 @@ def test_uct_hcount_runs(problems) -> None:
     # seconds on a loaded machine
     p2 = problems["P2"]
     two_steps = Problem(p2.spec.model_copy(update={"horizon": 2}), p2.source)
-    planner = UctHcountPlanner(plain_settings(2))
+    planner = build_planner("uct-hcount", plain_settings(2))
     result = planner.solve(two_steps, seed=0, time_budget_s=300.0)
     assert planner.name == "uct-hcount" and result.counters.simulations >= 1
     assert result.termination == "horizon" and len(result.plan) == 2

@@ -13,18 +13,17 @@ import pytest
 from stalm.planners.iterative_replanning import IterativeReplanningPlanner, ReplanningSettings
 from stalm.planners.llm_mcts import LlmMctsPlanner, LlmMctsSettings
 from stalm.planners.pddlstream import AdaptiveSettings
-from stalm.planners.registry import build_planner, resolve
-from stalm.planners.saycan import EpSayCanPlanner, SayCanSettings
-from stalm.planners.stalm import StalmPlanner, StalmSettings, proposer_kind
-from stalm.planners.uct import UctPlanner
-from stalm.planners.uct_hcount import UctHcountPlanner
+from stalm.planners.registry import build_planner, planners, resolve
+from stalm.planners.saycan import EpSayCanPlanner, SayCan, SayCanSettings
+from stalm.planners.stalm import StalmPlanner, StalmSettings, StalmSteps, proposer_kind
+from stalm.planners.uct import UctSteps, uct_planner
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.language_model import LLMProposer
 from stalm.proposers.noisy import NoisyProposer
 from stalm.search import SearchSettings
 from stalm.settings.io import setting_keys, with_values
 from stalm.settings.tree import RunSettings, SearchSection, with_budget
-from stalm.trial.online import Sampling
+from stalm.trial.online import OnlinePlanner
 from tests.golden import assert_matches, plain
 from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble
 
@@ -34,7 +33,6 @@ METHOD_CONSTANTS: dict[type, set[str]] = {
     StalmSettings: set(),
     LlmMctsSettings: {"uniform_weight"},
     SayCanSettings: {"uniform_weight", "max_queries_per_step", "temperature"},
-    Sampling: set(),
     ReplanningSettings: {"attempts_per_state", "max_failed_plans", "temperature"},
     AdaptiveSettings: {"initial_complexity", "search", "memory_limit_mb"},
 }
@@ -88,36 +86,57 @@ def test_stalm_built_by_hand_reads_what_the_registry_builds_for_its_proposer(kin
     an explicit setting is kept."""
     tree = _tree(("proposer.kind", kind), ("llm.backend", "http://127.0.0.1:9/v1#m"))
     built = build_planner("stalm", tree)
-    assert isinstance(built, StalmPlanner)
-    by_hand = StalmPlanner(built.proposer)
-    assert by_hand.settings == built.settings and by_hand.sampling == built.sampling
-    assert by_hand.settings.feedback is (kind == "symbolic")
-    off = StalmPlanner(built.proposer, _tree(("execution.feedback", False)))
-    assert (off.settings.feedback, off.settings.backtracks) == (False, 0)
+    assert isinstance(built.start, StalmSteps)
+    by_hand = StalmPlanner(built.start.proposer)
+    assert isinstance(by_hand.start, StalmSteps)
+    assert by_hand.start.settings == built.start.settings
+    assert _trial_shape(by_hand) == _trial_shape(built)
+    assert by_hand.start.settings.feedback is (kind == "symbolic")
+    off = StalmPlanner(built.start.proposer, _tree(("execution.feedback", False)))
+    assert isinstance(off.start, StalmSteps)
+    assert (off.start.settings.feedback, off.start.settings.backtracks) == (False, 0)
+
+
+def _trial_shape(planner: OnlinePlanner) -> tuple[object, ...]:
+    """What the online loop sets up for ``planner``'s trials."""
+    settings = planner.settings
+    return (
+        planner.name,
+        settings.samplers,
+        settings.predicates,
+        planner.rewards,
+        planner.occlusion,
+        planner.reuse_tree,
+    )
+
+
+def _method_reads(planner: OnlinePlanner) -> object:
+    """What ``planner``'s part holds of its settings beyond the tree (EP-SayCan reads the tree
+    itself, and holds only its constants)."""
+    method = planner.start
+    return method.constants if isinstance(method, SayCan) else method.settings  # type: ignore[attr-defined]
 
 
 def test_the_other_planners_built_by_hand_read_what_the_registry_builds() -> None:
     tree = _tree(("llm.backend", "http://127.0.0.1:9/v1#m"))
     backend = ScriptedReplyBackendDouble(queue=[])
     by_hand = {
-        "uct": UctPlanner(),
-        "uct-hcount": UctHcountPlanner(),
+        "uct": uct_planner("uct", RunSettings(), None, hcount=False),
+        "uct-hcount": uct_planner("uct-hcount", RunSettings(), None, hcount=True),
         "llm-mcts": LlmMctsPlanner(LLMProposer(backend)),
         "ep-saycan": EpSayCanPlanner(backend),
         "iterative-replanning": IterativeReplanningPlanner(backend),
     }
     for name, planner in by_hand.items():
         built = build_planner(name, tree)
-        assert type(planner) is type(built), name
-        assert planner.settings == built.settings, name  # type: ignore[attr-defined]
-        assert planner.sampling == built.sampling, name  # type: ignore[attr-defined]
-        assert (planner.rewards, planner.occlusion, planner.reuse_tree) == (
-            built.rewards,  # type: ignore[attr-defined]
-            built.occlusion,  # type: ignore[attr-defined]
-            built.reuse_tree,  # type: ignore[attr-defined]
-        ), name
-    assert by_hand["uct"].settings.search.budget == 35
-    assert by_hand["uct-hcount"].settings.occlusion_predicates
+        assert isinstance(built, OnlinePlanner), name
+        assert type(planner.start) is type(built.start), name
+        assert _method_reads(planner) == _method_reads(built), name
+        assert _trial_shape(planner) == _trial_shape(built), name
+    uct, hcount = by_hand["uct"].start, by_hand["uct-hcount"].start
+    assert isinstance(uct, UctSteps) and isinstance(hcount, UctSteps)
+    assert uct.settings.search.budget == 35 and not uct.hcount and hcount.hcount
+    assert by_hand["uct-hcount"].occlusion
 
 
 def test_stalm_with_the_symbolic_proposer_and_no_settings_runs_what_stalm_solve_runs(
@@ -134,3 +153,30 @@ def test_stalm_with_the_symbolic_proposer_and_no_settings_runs_what_stalm_solve_
     assert by_hand.success and cli.success
     assert [a.discrete for a in by_hand.plan] == [a.discrete for a in cli.plan]
     assert_matches(plain(list(by_hand.plan)), plain(list(cli.plan)), tolerance=1e-6)
+
+
+def test_each_planners_default_budget_is_its_registry_rows_and_the_settings_name_none() -> None:
+    """N_budget when ``search.sims`` is None is a row of the registry (STaLM's 30, the
+    baselines' 35), what the built planner searches with and what a record keeps; the
+    settings code names no planner."""
+    rows = {name: entry.sims for name, entry in planners().items()}
+    assert rows == {
+        "stalm": 30,
+        "stalm-no-uct": 30,
+        "uct": 35,
+        "uct-hcount": 35,
+        "ep-saycan": None,
+        "iterative-replanning": None,
+        "llm-mcts": 35,
+        "pddlstream-adaptive": None,
+    }
+    tree = _tree(("llm.backend", "http://127.0.0.1:9/v1#m"))
+    for name, sims in rows.items():
+        assert resolve(name, tree).search.sims == sims, name
+        if sims is not None:
+            method = build_planner(name, tree).start
+            assert method.settings.search.budget == sims, name  # type: ignore[attr-defined]
+    by_hand = StalmPlanner(SymbolicProposer()).start
+    assert isinstance(by_hand, StalmSteps) and by_hand.settings.search.budget == rows["stalm"]
+    settings_code = (STALM / "settings" / "tree.py").read_text(encoding="utf-8")
+    assert not re.search(r'"(stalm|uct|uct-hcount|llm-mcts)"', settings_code)

@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 import yaml
 
-from stalm.domain.mdp import RewardSettings
 from stalm.errors import StalmError
 from stalm.planners.registry import build_planner, resolve
 from stalm.planners.stalm import StalmSettings
@@ -64,7 +63,6 @@ def test_the_default_tree_builds_the_tree_planners_as_before() -> None:
         before = StalmSettings(
             n_batch=5,
             search=SearchSettings(budget=budget),
-            reuse_tree=True,
             feedback=False,
             feedback_rounds=8,
             search_rounds=10,
@@ -72,50 +70,63 @@ def test_the_default_tree_builds_the_tree_planners_as_before() -> None:
             execution="progress",
             kappa_tries=3,
             backtracks=0,
-            rewards=RewardSettings(goal_atom_lost=3.0),
-            occlusion_predicates=True,
         )
-        assert StalmSettings.of(settings, planner, proposes=planner == "stalm") == before
+        assert StalmSettings.of(settings, budget, proposes=planner == "stalm") == before
     symbolic = StalmSettings.of(
-        with_values(RunSettings(), [("proposer", "symbolic")], "test"), "stalm", proposes=True
+        with_values(RunSettings(), [("proposer", "symbolic")], "test"), 30, proposes=True
     )
     assert (symbolic.feedback, symbolic.backtracks) == (True, 6)
 
 
 # (dotted key, value, planner, what the built planner holds for it)
 REACHES = [
-    ("search.c", 20.0, "stalm", lambda p: p.settings.search.c),
-    ("search.k", 2.0, "uct", lambda p: p.settings.search.k),
-    ("search.alpha", 0.3, "uct-hcount", lambda p: p.settings.search.alpha),
-    ("search.gamma", 0.9, "llm-mcts", lambda p: p.settings.search.gamma),
-    ("search.horizon", 12, "stalm-no-uct", lambda p: p.settings.search.horizon),
-    ("search.sims", 9, "llm-mcts", lambda p: p.settings.search.budget),
-    ("search.batch", 3, "ep-saycan", lambda p: p.settings.n_batch),
+    ("search.c", 20.0, "stalm", lambda p: p.start.settings.search.c),
+    ("search.k", 2.0, "uct", lambda p: p.start.settings.search.k),
+    ("search.alpha", 0.3, "uct-hcount", lambda p: p.start.settings.search.alpha),
+    ("search.gamma", 0.9, "llm-mcts", lambda p: p.start.settings.search.gamma),
+    ("search.horizon", 12, "stalm-no-uct", lambda p: p.start.settings.search.horizon),
+    ("search.sims", 9, "llm-mcts", lambda p: p.start.settings.search.budget),
+    ("search.batch", 3, "ep-saycan", lambda p: p.start.settings.search.batch),
     ("rewards.goal", 50.0, "uct", lambda p: p.rewards.goal),
     ("rewards.infeasible", -1.0, "llm-mcts", lambda p: p.rewards.infeasible),
-    ("samplers.pick_tries", 5, "stalm", lambda p: p.sampling.samplers.pick_tries),
+    ("samplers.pick_tries", 5, "stalm", lambda p: p.settings.samplers.pick_tries),
     ("samplers.place_tries", 6, "pddlstream-adaptive", lambda p: p.samplers.place_tries),
     (
         "predicates.pick_samples",
         4,
         "iterative-replanning",
-        lambda p: p.sampling.predicates.pick_samples,
+        lambda p: p.settings.predicates.pick_samples,
     ),
-    ("predicates.workers", 2, "stalm", lambda p: p.sampling.predicates.workers),
-    ("execution.kappa_tries", 2, "ep-saycan", lambda p: p.settings.kappa_tries),
-    ("execution.step_share", 0.5, "stalm", lambda p: p.settings.step_share),
-    ("execution.feedback_rounds", 3, "stalm", lambda p: p.settings.feedback_rounds),
-    ("execution.search_rounds", 4, "uct", lambda p: p.settings.search_rounds),
+    ("predicates.workers", 2, "stalm", lambda p: p.settings.predicates.workers),
+    ("execution.kappa_tries", 2, "ep-saycan", lambda p: p.start.settings.execution.kappa_tries),
+    ("execution.step_share", 0.5, "stalm", lambda p: p.start.settings.step_share),
+    ("execution.feedback_rounds", 3, "stalm", lambda p: p.start.settings.feedback_rounds),
+    ("execution.search_rounds", 4, "uct", lambda p: p.start.settings.search_rounds),
     ("execution.reuse_tree", False, "llm-mcts", lambda p: p.reuse_tree),
-    ("proposer.goal_relations_only", False, "stalm", lambda p: p.proposer.goal_relations_only),
+    (
+        "proposer.goal_relations_only",
+        False,
+        "stalm",
+        lambda p: p.start.proposer.goal_relations_only,
+    ),
     (
         "proposer.break_occlusion_cycles",
         False,
         "stalm",
-        lambda p: p.proposer.break_occlusion_cycles,
+        lambda p: p.start.proposer.break_occlusion_cycles,
     ),
-    ("proposer.needed_objects_only", False, "stalm", lambda p: p.proposer.needed_objects_only),
-    ("prompt.ask_challenges", False, "iterative-replanning", lambda p: p.options.ask_challenges),
+    (
+        "proposer.needed_objects_only",
+        False,
+        "stalm",
+        lambda p: p.start.proposer.needed_objects_only,
+    ),
+    (
+        "prompt.ask_challenges",
+        False,
+        "iterative-replanning",
+        lambda p: p.start.options.ask_challenges,
+    ),
 ]
 
 

@@ -4,19 +4,20 @@ and the registry above the planners."""
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from stalm.domain.actions import Open, Pick
-from stalm.planners.iterative_replanning import IterativeReplanningPlanner
 from stalm.planners.llm_mcts import LlmMctsPlanner
 from stalm.planners.registry import build_planner, planners
-from stalm.planners.saycan import EpSayCanPlanner
-from stalm.planners.stalm import StalmPlanner
-from stalm.planners.stalm_no_uct import StalmNoUctPlanner
-from stalm.planners.uct import UctPlanner
-from stalm.planners.uct_hcount import UctHcountPlanner
+from stalm.planners.stalm import (
+    StalmSteps,
+    best_prefix_first_action,
+    warm_started_search,
+)
+from stalm.planners.uct import UctSteps
 from stalm.predicates.engine import PredicateCache
 from stalm.predicates.memo import PredicateMemo
 from stalm.predicates.samples import MotionSamples
@@ -93,22 +94,29 @@ def _action(discrete: object) -> object:
 
 
 @pytest.mark.parametrize(
-    ("cls", "name"),
-    [
-        (StalmPlanner, "stalm"),
-        (StalmNoUctPlanner, "stalm-no-uct"),
-        (UctPlanner, "uct"),
-        (UctHcountPlanner, "uct-hcount"),
-        (EpSayCanPlanner, "ep-saycan"),
-        (IterativeReplanningPlanner, "iterative-replanning"),
-        (LlmMctsPlanner, "llm-mcts"),
-    ],
+    "name",
+    ["stalm", "stalm-no-uct", "uct", "uct-hcount", "ep-saycan", "iterative-replanning", "llm-mcts"],
 )
-def test_each_online_method_is_one_class_of_the_base_named_by_the_paper(
-    cls: type[OnlinePlanner], name: str
-) -> None:
-    assert issubclass(cls, OnlinePlanner) and cls.name == name
+def test_each_online_row_is_the_one_loop_around_its_method_named_by_the_paper(name) -> None:
+    planner = build_planner(name, settings_of(llm="http://127.0.0.1:9/v1#m"))
+    assert type(planner) is OnlinePlanner and planner.name == name
     assert name in planners()
+
+
+def test_the_ablations_differ_from_their_planner_only_in_their_steps_part() -> None:
+    """STaLM w/o UCT is STaLM's step with another no-goal-plan part; UCT-with-Hcount is
+    UCT's step with Hcount as the leaf value (and the occlusion predicates it reads)."""
+    settings = settings_of(proposer="symbolic")
+    stalm, ablation = build_planner("stalm", settings), build_planner("stalm-no-uct", settings)
+    assert isinstance(stalm.start, StalmSteps) and isinstance(ablation.start, StalmSteps)
+    assert stalm.start.no_goal_plan is warm_started_search
+    assert ablation.start.no_goal_plan is best_prefix_first_action
+    assert replace(ablation.start, no_goal_plan=warm_started_search) == stalm.start
+    uct, hcount = build_planner("uct", settings), build_planner("uct-hcount", settings)
+    assert isinstance(uct.start, UctSteps) and isinstance(hcount.start, UctSteps)
+    assert (uct.start.hcount, hcount.start.hcount) == (False, True)
+    assert uct.start.settings == hcount.start.settings
+    assert (uct.reuse_tree, uct.rewards) == (hcount.reuse_tree, hcount.rewards)
 
 
 @pytest.mark.parametrize("planner", ["stalm", "uct-hcount"])
@@ -187,9 +195,7 @@ def test_llm_mcts_keeps_the_executed_childs_subtree_and_priors_when_asked_to(pro
 
 PLANNER_MODULES = (
     "stalm.planners.stalm",
-    "stalm.planners.stalm_no_uct",
     "stalm.planners.uct",
-    "stalm.planners.uct_hcount",
     "stalm.planners.saycan",
     "stalm.planners.iterative_replanning",
     "stalm.planners.llm_mcts",

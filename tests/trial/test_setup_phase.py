@@ -10,6 +10,7 @@ the method, with the set-up phase recorded.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import pytest
@@ -38,15 +39,15 @@ def slow_scene(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_a_set_up_that_outlasts_the_budget_ends_the_trial_as_a_timeout(
     problems, monkeypatch, slow_scene
 ) -> None:
-    planner = build_planner("uct", settings_of())
+    built = build_planner("uct", settings_of())
+    assert isinstance(built, online.OnlinePlanner)
     started: list[object] = []
-    start = type(planner).start
 
-    def recorded_start(self: online.OnlinePlanner, trial: online.Trial) -> online.Decider:
+    def recorded_start(trial: online.Trial) -> online.Decider:
         started.append(trial)
-        return start(self, trial)
+        return built.start(trial)
 
-    monkeypatch.setattr(type(planner), "start", recorded_start)
+    planner = dataclasses.replace(built, start=recorded_start)
     result = planner.solve(problems["P2"], seed=0, time_budget_s=BUDGET_S)
     assert result.termination == "timeout" and not result.success
     assert started == []  # the deadline had passed: the method never started

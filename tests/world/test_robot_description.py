@@ -63,6 +63,7 @@ def test_the_panda_file_describes_exactly_todays_constants() -> None:
     assert robot.joint_limits == panda_robot.ARM_JOINT_LIMITS
     assert spec.gripper is not None
     assert set(spec.gripper.finger_joints.values()) == {panda_robot.FINGER_OPENING}
+    assert spec.gripper.opening == panda_robot.GRIPPER_GAP  # what grasps are derived from
     assert (mount.base_radius, mount.base_height, mount.arm_mount_forward) == (
         panda_robot.BASE_RADIUS,
         panda_robot.BASE_HEIGHT,
