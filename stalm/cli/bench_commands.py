@@ -106,7 +106,8 @@ def bench_predicates(
     problems: Annotated[
         list[str] | None,
         typer.Argument(
-            help="Problems (default P1..P6, BOX1's boxes and the 35-object benchmark layout)."
+            help="Problems (default P1..P6, BOX1's boxes, MESH1's meshes and the 35-object "
+            "benchmark layout)."
         ),
     ] = None,
     seed: Annotated[int, typer.Option(help="Seed for the actions taken.")] = 0,

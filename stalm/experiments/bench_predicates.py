@@ -30,13 +30,14 @@ from stalm.predicates.samples import PredicateSettings
 from stalm.world.problem import load_problem, shipped_problems_dir
 from stalm.world.state import State
 
-BENCH_LAYOUTS = ("box1.yaml", "layouts/clutter35.yaml")
+BENCH_LAYOUTS = ("box1.yaml", "mesh1.yaml", "layouts/clutter35.yaml")
 """Problems beyond P1-P6 in the default list, under the package's problems folder: the scene
-of boxes and the 35-object layout."""
+of boxes, the scene of meshes (whose pieces the batched engine covers with boxes) and the
+35-object layout."""
 
 
 def default_problems() -> list[str]:
-    """P1..P6, the box scene and the benchmark layout (by path)."""
+    """P1..P6, the box and mesh scenes and the benchmark layout (by path)."""
     return [
         *("P1", "P2", "P3", "P4", "P5", "P6"),
         *(str(shipped_problems_dir() / layout) for layout in BENCH_LAYOUTS),

@@ -20,7 +20,7 @@ from stalm.geometry.transforms import (
     wrap_angle,
 )
 from stalm.world import robot as robot_model
-from stalm.world.grip_widths import too_wide
+from stalm.world.grip_widths import hull_widths, too_wide
 from stalm.world.spec import GRILL_HANDLE_REACH, ObjectSpec, RegionSpec
 from stalm.world.state import ObjectPose
 
@@ -81,6 +81,8 @@ def grasp_window(
     straight ahead)."""
     if too_wide(obj, gap) is not None:
         return None
+    if obj.shape == "mesh":
+        return _mesh_window(obj, pose, stand, pitch_range, yaw_range, gap, palm_depth)
     if not yaw_limited(obj):
         point = nearest_grasp_point(obj, pose, stand)
         local = _nearest_local(obj, pose, stand)
@@ -122,7 +124,72 @@ def grasp_window(
 def yaw_limited(obj: ObjectSpec) -> bool:
     """Does the gripper's yaw around ``obj`` decide whether it fits (a box: its faces differ
     in width, and turning widens it across the fingers), unlike a round object's?"""
-    return obj.shape == "box"
+    return obj.shape in ("box", "mesh")
+
+
+MESH_YAW_STEP = math.radians(0.25)
+"""The step (radians) at which a mesh's closing width is measured over PICK's yaw range."""
+
+
+def _mesh_window(
+    obj: ObjectSpec,
+    pose: ObjectPose,
+    stand: tuple[float, float, float],
+    pitch_range: tuple[float, float],
+    yaw_range: tuple[float, float],
+    gap: float,
+    palm_depth: float,
+) -> GraspWindow | None:
+    """A mesh's grasp, as a box's: the widest run of yaws in ``yaw_range`` (ties: the one
+    most straight ahead) where the width of its hull across the fingers
+    (:func:`~stalm.world.grip_widths.hull_widths`, measured every :data:`MESH_YAW_STEP`) fits
+    ``gap`` at every yaw of the run, not only the measured ones; from the side at half its
+    height (capped) if it is tall enough, else from above.
+    The grasp point is centred across the fingers at the run's middle yaw and, from the side,
+    at most ``palm_depth`` behind the mesh's near side, so the palm stays out of it."""
+    outline = obj.outline
+    points = outline.points
+    count = max(2, math.ceil((yaw_range[1] - yaw_range[0]) / MESH_YAW_STEP) + 1)
+    yaws = np.linspace(yaw_range[0], yaw_range[1], count)
+    approach = yaws + stand[2] - pose.yaw  # the approach direction in the object's frame
+    # between two samples the width grows at most 2 r per radian (r: the farthest vertex from
+    # the frame's axis), so a yaw within half a step of a sample is at most r * step wider
+    slack = float(np.hypot(points[:, 0], points[:, 1]).max()) * (yaws[1] - yaws[0])
+    fits = hull_widths(points, approach + math.pi / 2) <= gap - slack
+    best: tuple[float, float, int, int] | None = None
+    start = None
+    for index in range(count + 1):
+        if index < count and fits[index]:
+            start = index if start is None else start
+            continue
+        if start is not None:
+            low, high = float(yaws[start]), float(yaws[index - 1])
+            key = (high - low, -abs((low + high) / 2))
+            if best is None or key > best[:2]:
+                best = (*key, start, index - 1)
+            start = None
+    if best is None:
+        return None
+    low, high = float(yaws[best[2]]), float(yaws[best[3]])
+    middle = (low + high) / 2 + stand[2] - pose.yaw
+    along = np.array([math.cos(middle), math.sin(middle)])
+    across = np.array([-along[1], along[0]])
+    depth, width = points[:, :2] @ along, points[:, :2] @ across
+    centre = (width.max() + width.min()) / 2
+    height = 2 * outline.half_extents[2]
+    if height >= SIDE_GRASP_MIN_HEIGHT:
+        pitches = pitch_range
+        inset = depth.min() + min((depth.max() - depth.min()) / 2, palm_depth)
+        z = min(height / 2, SIDE_GRASP_HEIGHT_CAP)
+    else:
+        span = pitch_range[1] - pitch_range[0]
+        pitches = (math.pi / 2 - span, math.pi / 2)
+        inset = (depth.max() + depth.min()) / 2
+        z = max(height / 2, height - palm_depth)
+    lx, ly = inset * along + centre * across
+    local = (float(lx), float(ly), float(z))
+    wx, wy = se2_to_world((pose.x, pose.y, pose.yaw), local[0], local[1])
+    return GraspWindow(local, (wx, wy, pose.z + local[2]), pitches, (low, high))
 
 
 def _fitting_turn(width: float, depth: float, gap: float) -> float:

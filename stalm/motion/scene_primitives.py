@@ -3,14 +3,16 @@
 :class:`ScenePrimitives` turns a simulator's bodies into the rows
 :mod:`stalm.motion.collision_primitives` reads: the static scene (walls, counters, tables) once,
 the doors and objects as the simulator has them at each question, and the held object in the
-gripper's frame (a can as its box and its spheres, a grill or a box as its boxes). Every body has a
-column, the index the candidate test marks.
+gripper's frame (a can as its box and its spheres, a grill or a box as its boxes, a mesh as a
+box around each of its convex pieces). Every body has a column, the index the candidate test
+marks.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
+from functools import cache
 
 import numpy as np
 import pybullet as p
@@ -18,14 +20,20 @@ import pybullet as p
 from stalm.geometry.transforms import quat_yaw
 from stalm.motion import panda
 from stalm.motion.panda_spheres import panda_spheres
+from stalm.motion.sphere_fit import CONTACT_MARGIN
 from stalm.world import robot as robot_model
+from stalm.world.mesh_pieces import object_pieces
 from stalm.world.scene import Sim
 from stalm.world.spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
 from stalm.world.state import Grasp
 
-BOXED_SHAPES = ("grill", "box")
-"""Shapes whose collision shapes are oriented boxes: the batched engine tests them exactly as
-PyBullet has them (their rows are the boxes themselves, not a cover), and a held one as boxes."""
+BOXED_SHAPES = ("grill", "box", "mesh")
+"""Shapes the batched engine tests as oriented boxes, and a held one as boxes: a grill's and a
+box's rows are their collision shapes exactly; a mesh's cover its convex pieces."""
+MESH_BOX_PADDING = 2 * CONTACT_MARGIN
+"""How far a mesh piece's box reaches past the piece's vertices (m): PyBullet reports contacts
+of convex hulls up to their collision margin apart, so the cover must hold the hull grown by it
+(twice it, for slack)."""
 
 
 def box_row(
@@ -46,7 +54,8 @@ def yaw_rotation(yaw: float) -> np.ndarray:
 
 def object_boxes(obj: ObjectSpec) -> list[tuple[tuple[float, float, float], tuple[float, ...]]]:
     """An object's collision boxes in its own frame (origin at its bottom centre): (centre,
-    half extents) each; a box's is itself, a cylinder's is its bounding box."""
+    half extents) each; a box's is itself, a cylinder's is its bounding box, a mesh's are the
+    bounding boxes (in its frame, grown by :data:`MESH_BOX_PADDING`) of its convex pieces."""
     if obj.shape == "grill":
         assert obj.size is not None
         sx, sy, sz = obj.size
@@ -60,8 +69,29 @@ def object_boxes(obj: ObjectSpec) -> list[tuple[tuple[float, float, float], tupl
     if obj.shape == "box":
         half = obj.half_extents
         return [((0.0, 0.0, half[2]), half)]
+    if obj.shape == "mesh":
+        return list(_mesh_boxes(obj))
     assert obj.radius is not None and obj.height is not None
     return [((0.0, 0.0, obj.height / 2), (obj.radius, obj.radius, obj.height / 2))]
+
+
+@cache
+def _mesh_boxes(
+    obj: ObjectSpec,
+) -> tuple[tuple[tuple[float, float, float], tuple[float, ...]], ...]:
+    """A mesh object's piece boxes, computed once (the scene asks for them at every test)."""
+    return tuple(_piece_box(piece) for piece in object_pieces(obj).vertices)
+
+
+def _piece_box(
+    vertices: np.ndarray,
+) -> tuple[tuple[float, float, float], tuple[float, ...]]:
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    centre, half = (low + high) / 2, (high - low) / 2 + MESH_BOX_PADDING
+    return (
+        (float(centre[0]), float(centre[1]), float(centre[2])),
+        tuple(float(h) for h in half),
+    )
 
 
 def cylinder_spheres(obj: ObjectSpec) -> tuple[np.ndarray, float]:

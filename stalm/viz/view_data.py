@@ -36,6 +36,7 @@ from stalm.trial.replay import replay_result_json
 from stalm.trial.result import phase_times_json
 from stalm.trial.step_log import DECISIONS
 from stalm.viz.animate import plan_motion_places
+from stalm.world.mesh_files import read_obj
 from stalm.world.problem import Problem
 from stalm.world.robot_limits import panda_limits
 from stalm.world.scene import Sim
@@ -99,6 +100,19 @@ def _cylinder(radius: float, length: float) -> tuple[np.ndarray, list[tuple[int,
     return points, faces
 
 
+def _obj_triangles(
+    file_name: str, scale: Sequence[float]
+) -> tuple[np.ndarray, list[tuple[int, int, int]]]:
+    """The triangles of a mesh object's OBJ (every piece), scaled: the mesh as it is drawn."""
+    pieces = read_obj(Path(file_name))
+    points, faces, count = [], [], 0
+    for vertices, triangles in zip(pieces.vertices, pieces.triangles, strict=True):
+        points.append(vertices * np.asarray(scale[:3]))
+        faces += [(int(a) + count, int(b) + count, int(c) + count) for a, b, c in triangles]
+        count += len(vertices)
+    return np.vstack(points), faces
+
+
 def _color(rgba: Sequence[float]) -> str:
     r, g, b = (round(255 * min(1.0, max(0.0, float(c)))) for c in rgba[:3])
     return f"rgb({r},{g},{b})"
@@ -114,7 +128,7 @@ class _Mesh:
         self.count = 0
 
     def add_body(self, sim: Sim, body: int, world: bool) -> int:
-        """Add ``body``'s box and cylinder shapes, in its own frame or (``world``) where it
+        """Add ``body``'s box, cylinder and mesh shapes, in its own frame or (``world``) where it
         stands now; return how many vertices were added."""
         added = 0
         origin, orientation = p.getBasePositionAndOrientation(body, physicsClientId=sim.client)
@@ -126,7 +140,9 @@ class _Mesh:
                 points, faces = _box(dimensions)
             elif geometry == p.GEOM_CYLINDER:
                 points, faces = _cylinder(dimensions[1], dimensions[0])
-            else:  # only the Panda has meshes; it is drawn as a stick figure
+            elif geometry == p.GEOM_MESH:  # a mesh object (the Panda is a stick figure)
+                points, faces = _obj_triangles(shape[4].decode(), dimensions)
+            else:
                 continue
             points = _rotate(quat, points) + np.asarray(position)
             if world:

@@ -5,7 +5,7 @@ the plan's executed states under PyBullet's dynamics in a client of its own (DIR
 from the problem's spec with the planner's own shapes (:func:`~stalm.world.scene_build.
 build_bodies`, :func:`~stalm.world.scene_build.object_shapes`), gravity on:
 
-- every movable object is dynamic, with a mass (:data:`MASS_KG`) at the centroid of its shape
+- every movable object is dynamic, with a mass (:func:`object_mass`) at the centroid of its shape
   (the planner's bodies keep theirs at the bottom face, which would make everything stable);
   walls, regions, doors and the robot's base are fixed, and the arm (a fixed-base body) is
   held in each configuration by PyBullet's default joint motors;
@@ -35,6 +35,7 @@ import pybullet as p
 from stalm.errors import StalmError
 from stalm.geometry.transforms import yaw_quat
 from stalm.world import robot as robot_model
+from stalm.world.mesh_pieces import object_pieces, pieces_volume_centroid
 from stalm.world.problem import Problem
 from stalm.world.scene import ARM_JOINTS, GRASP_LINK
 from stalm.world.scene_build import FINGER_JOINTS, build_bodies, object_shapes
@@ -54,6 +55,17 @@ TOLERANCE_DEG = 5.0
 MASS_KG = {"cylinder": 0.3, "disc": 0.2, "grill": 4.0, "box": 0.5}
 """Mass per shape: a full drinks can or bottle, a plate, a small table grill, a packet. Resting
 stability depends on shape and centre of mass, not on mass, so one figure per shape does."""
+MESH_DENSITY_KG_M3 = 500.0
+"""A mesh object's density (half water's: a toy or a packet, partly hollow), over the volume
+of its convex pieces' hulls: its mass follows its size, its centre of mass its shape."""
+
+
+def object_mass(obj: ObjectSpec) -> float:
+    """``obj``'s mass (kg): :data:`MASS_KG` by shape, a mesh's from :data:`MESH_DENSITY_KG_M3`."""
+    if obj.shape == "mesh":
+        volume, _ = pieces_volume_centroid(object_pieces(obj))
+        return MESH_DENSITY_KG_M3 * volume
+    return MASS_KG[obj.shape]
 
 
 @dataclass(frozen=True)
@@ -226,7 +238,10 @@ def _step_check(
 
 def centre_of_mass(obj: ObjectSpec) -> tuple[float, float, float]:
     """The centroid of ``obj``'s shape in its frame (origin at the bottom face's centre),
-    for a uniform density (a grill's handles pull it a little toward their height)."""
+    for a uniform density (a grill's handles pull it a little toward their height, a mesh's is
+    its convex pieces' centroid)."""
+    if obj.shape == "mesh":
+        return pieces_volume_centroid(object_pieces(obj))[1]
     if obj.shape != "grill":
         return (0.0, 0.0, obj.half_extents[2])
     assert obj.size is not None
@@ -253,7 +268,7 @@ class _PhysicsWorld:
                 col, vis = object_shapes(c, obj)
                 self.offsets[obj.name] = centre_of_mass(obj)
                 self.objects[obj.name] = p.createMultiBody(
-                    MASS_KG[obj.shape],
+                    object_mass(obj),
                     col,
                     vis,
                     [0.0, 0.0, -10.0],

@@ -19,7 +19,7 @@ from pydantic import ValidationError
 
 from stalm.errors import StalmError
 from stalm.files import MAX_PROBLEM_FILE_BYTES, excerpt, load_yaml, read_text
-from stalm.world.spec import ProblemSpec
+from stalm.world.spec import MESH_BASE_CONTEXT, ProblemSpec
 
 MAX_ERROR_LINES = 6
 """Validation problems listed at most (a file with hundreds of them is not the user's typo)."""
@@ -93,11 +93,15 @@ def _first_boolean(data: object, loc: tuple[object, ...] = ()) -> str | None:
 
 
 def parse_problem(
-    data: object, source: str = "<problem>", spec: type[ProblemSpec] = ProblemSpec
+    data: object,
+    source: str = "<problem>",
+    spec: type[ProblemSpec] = ProblemSpec,
+    base: Path | None = None,
 ) -> ProblemSpec:
     """Validate already-loaded problem data; errors name ``source`` and the field. ``spec``
     may be a narrower or looser kind of problem (a generator's layout: one without objects)
-    validated by the same rules and reported the same way."""
+    validated by the same rules and reported the same way. A mesh object's relative file path
+    resolves against ``base`` (the problem file's folder; the working folder if None)."""
     if not isinstance(data, dict):
         kind = "text" if isinstance(data, str) else type(data).__name__
         raise StalmError(f"{source}: a problem file must be a mapping of fields, got {kind}")
@@ -110,7 +114,7 @@ def parse_problem(
     if boolean is not None:
         raise StalmError(f"{source}: {boolean}")
     try:
-        return spec.model_validate(data)
+        return spec.model_validate(data, context={MESH_BASE_CONTEXT: base})
     except ValidationError as error:
         raise StalmError(format_validation_error(source, error)) from None
 
@@ -120,4 +124,4 @@ def load_problem_file(path: Path) -> ProblemSpec:
     :data:`~stalm.files.MAX_PROBLEM_FILE_BYTES`)."""
     text = read_text(path, MAX_PROBLEM_FILE_BYTES, "problem file")
     data = load_yaml(text, str(path))
-    return parse_problem(data, str(path))
+    return parse_problem(data, str(path), base=path.parent)

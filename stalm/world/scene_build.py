@@ -18,6 +18,7 @@ import pybullet_data
 
 from stalm.geometry.transforms import yaw_quat
 from stalm.world import robot as robot_model
+from stalm.world.mesh_pieces import object_pieces
 from stalm.world.spec import (
     GRILL_HANDLE_HALF_HEIGHT,
     GRILL_HANDLE_REACH,
@@ -200,6 +201,8 @@ def object_shapes(client: int, obj: ObjectSpec) -> tuple[int, int]:
             visualFramePosition=centre,
             physicsClientId=c,
         )
+    elif obj.shape == "mesh":
+        col, vis = _mesh_shapes(client, obj)
     else:
         assert obj.radius is not None and obj.height is not None
         col = p.createCollisionShape(
@@ -217,6 +220,29 @@ def object_shapes(client: int, obj: ObjectSpec) -> tuple[int, int]:
             visualFramePosition=[0, 0, obj.height / 2],
             physicsClientId=c,
         )
+    return int(col), int(vis)
+
+
+def _mesh_shapes(client: int, obj: ObjectSpec) -> tuple[int, int]:
+    """A mesh object collides as its convex pieces (a compound of their hulls) and looks like
+    its own OBJ, both scaled and moved into the object's frame."""
+    outline, pieces = obj.outline, object_pieces(obj)
+    scale = [outline.scale] * 3
+    col = p.createCollisionShape(
+        p.GEOM_MESH,
+        fileName=str(pieces.collision_file),
+        meshScale=scale,
+        collisionFramePosition=list(pieces.frame_position),
+        physicsClientId=client,
+    )
+    vis = p.createVisualShape(
+        p.GEOM_MESH,
+        fileName=str(outline.path),
+        meshScale=scale,
+        rgbaColor=list(obj.color),
+        visualFramePosition=list(pieces.frame_position),
+        physicsClientId=client,
+    )
     return int(col), int(vis)
 
 

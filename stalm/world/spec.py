@@ -14,13 +14,16 @@ standing pose side along the region's +x, v to the left), so layouts read like t
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
+    PrivateAttr,
     SerializerFunctionWrapHandler,
+    ValidationInfo,
     model_serializer,
     model_validator,
 )
@@ -29,6 +32,7 @@ from stalm.errors import StalmError
 from stalm.geometry.directions import DIRECTIONS
 from stalm.geometry.footprints import planar_footprints_overlap, rotated_half_extent
 from stalm.world.goal_consistency import goal_contradiction
+from stalm.world.mesh_files import MeshOutline, mesh_outline, resolve_mesh_path
 from stalm.world.spec_values import (
     MAX_FLOOR_SIDE,
     RGBA,
@@ -116,7 +120,11 @@ class DoorSpec(_Spec):
         return self.handle_offset if self.handle_offset is not None else self.width - 0.1
 
 
-ShapeName = Literal["cylinder", "disc", "grill", "box"]
+ShapeName = Literal["cylinder", "disc", "grill", "box", "mesh"]
+
+MESH_BASE_CONTEXT = "mesh_base"
+"""The validation context key holding the folder a problem's relative ``mesh`` paths resolve
+against (the problem file's)."""
 
 
 class ObjectSpec(_Spec):
@@ -125,6 +133,9 @@ class ObjectSpec(_Spec):
     ``cylinder``: cans, salters, bottles (radius, height). ``disc``: a plate (radius, height
     is its thickness). ``grill``: a box body (``size``, its lid included) with two side
     handles along its y axis at ``handle_height`` above its bottom, grasped at a handle.
+    ``box``: a cuboid of full extents ``size``. ``mesh``: the OBJ file ``mesh`` (relative to
+    the problem file, or ``pybullet_data:<path>``) scaled by ``scale``, resting with its lowest
+    point on the region; its footprint is its bounding rectangle (:mod:`~stalm.world.mesh_files`).
     """
 
     name: Name
@@ -140,10 +151,48 @@ class ObjectSpec(_Spec):
     at: Vec2 = Field(description="start position (u, v) in the region's frame")
     yaw: Coordinate = Field(default=0.0, description="start yaw relative to the region's frame")
     color: RGBA = (0.8, 0.2, 0.2, 1.0)
+    mesh: str | None = Field(default=None, description="a mesh object's OBJ file")
+    scale: Positive | None = Field(default=None, description="a mesh's scale (1 if unset)")
+    _mesh_path: Path | None = PrivateAttr(default=None)
+
+    @model_validator(mode="after")
+    def _mesh_file_is_a_mesh(self, info: ValidationInfo) -> ObjectSpec:
+        """A mesh object's file is found and read now, so a missing or empty one is refused
+        with the problem, naming the field."""
+        if self.shape != "mesh":
+            if self.mesh is not None or self.scale is not None:
+                raise ValueError(f"a {self.shape} takes no 'mesh' or 'scale': they are a mesh's")
+            return self
+        if self.mesh is None:
+            raise ValueError("a mesh needs 'mesh': its OBJ file")
+        if self.radius is not None or self.height is not None or self.size is not None:
+            raise ValueError("a mesh takes 'mesh' and 'scale', not 'radius', 'height' or 'size'")
+        context = info.context if isinstance(info.context, dict) else {}
+        base = context.get(MESH_BASE_CONTEXT)
+        try:
+            path = resolve_mesh_path(self.mesh, Path(base) if base is not None else None)
+            mesh_outline(path, self.mesh_scale)  # reads it: an empty or unreadable one fails
+        except ValueError as error:
+            raise ValueError(f"mesh: {error}") from None
+        self._mesh_path = path
+        return self
+
+    @property
+    def mesh_scale(self) -> float:
+        """A mesh's scale: ``scale``, 1 if unset."""
+        return self.scale if self.scale is not None else 1.0
+
+    @property
+    def outline(self) -> MeshOutline:
+        """A mesh object's vertices in its frame (:class:`~stalm.world.mesh_files.MeshOutline`)."""
+        assert self._mesh_path is not None, "a mesh object's file is resolved when validated"
+        return mesh_outline(self._mesh_path, self.mesh_scale)
 
     @model_validator(mode="after")
     def _dimensions_match_shape(self) -> ObjectSpec:
-        if self.shape in ("cylinder", "disc"):
+        if self.shape == "mesh":
+            pass
+        elif self.shape in ("cylinder", "disc"):
             if self.radius is None or self.height is None:
                 raise ValueError(f"a {self.shape} needs 'radius' and 'height'")
             if self.size is not None:
@@ -172,12 +221,14 @@ class ObjectSpec(_Spec):
 
     @model_serializer(mode="wrap")
     def _without_unset_handles(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
-        """An object without ``handle_height`` dumps as it did before the field existed, so
+        """An object without ``handle_height`` (or a mesh's ``mesh`` and ``scale``) dumps as it
+        did before the field existed, so
         every problem's :attr:`~stalm.world.problem.Problem.content_hash` (which results
         record) stays what it was."""
         data: dict[str, Any] = handler(self)
-        if self.handle_height is None:
-            data.pop("handle_height", None)
+        for field in ("handle_height", "mesh", "scale"):
+            if data.get(field, 0) is None:
+                data.pop(field)
         return data
 
     @property
@@ -198,6 +249,8 @@ class ObjectSpec(_Spec):
         if self.shape == "box":
             assert self.size is not None
             return (self.size[0] / 2, self.size[1] / 2, self.size[2] / 2)
+        if self.shape == "mesh":
+            return self.outline.half_extents
         assert self.radius is not None and self.height is not None
         return (self.radius, self.radius, self.height / 2)
 
@@ -381,9 +434,9 @@ _OVERLAP_SLACK = 1e-6
 def _footprint(
     obj: ObjectSpec, x: float, y: float, yaw: float
 ) -> tuple[float, float, float, float, float | None]:
-    """(x, y, yaw, half x, half y) of a grill's or a box's rectangle, or (x, y, 0, r, None) of a
-    circle, for the object standing at (x, y) with ``yaw`` (in any one planar frame)."""
-    if obj.shape in ("grill", "box"):
+    """(x, y, yaw, half x, half y) of a grill's, a box's or a mesh's rectangle, or (x, y, 0, r,
+    None) of a circle, for the object standing at (x, y) with ``yaw`` (in any one planar frame)."""
+    if obj.shape in ("grill", "box", "mesh"):
         hx, hy, _ = obj.half_extents
         return (x, y, yaw, hx, hy)
     assert obj.radius is not None
