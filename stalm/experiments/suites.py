@@ -292,7 +292,7 @@ def trial_specs(plan: ExperimentPlan) -> list[TrialSpec]:
     specs = []
     for trial in range(plan.trials):
         for problem in plan.problems:
-            canonical, text, problem_budget = loaded[problem]
+            canonical, text, problem_budget, folder = loaded[problem]
             budget = plan.time_budget_s or problem_budget
             if budget * plan.budget_scale > MAX_RECORD_SECONDS:
                 raise StalmError(
@@ -310,6 +310,7 @@ def trial_specs(plan: ExperimentPlan) -> list[TrialSpec]:
                         seed=derive_seed(plan.master_seed, canonical, trial),
                         time_budget_s=round(budget * plan.budget_scale, 3),
                         fields=tuple(plan.problem_fields.get(problem, {}).items()),
+                        problem_dir=folder,
                     )
                 )
     return specs

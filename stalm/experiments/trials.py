@@ -25,12 +25,14 @@ from pathlib import Path
 from typing import Any
 
 from stalm.errors import StalmError
+from stalm.files import load_yaml
 from stalm.planners.registry import build_planner, resolve
 from stalm.settings.io import changed, to_dict
 from stalm.settings.tree import FLAT_NAMES, RunSettings, with_budget
 from stalm.temp_folders import temporary_folder
 from stalm.world.physics_check import check_physics
-from stalm.world.problem import PROBLEM_HASH_FIELD, load_problem
+from stalm.world.problem import PROBLEM_HASH_FIELD, Problem, load_problem
+from stalm.world.problem_file import parse_problem
 
 RECORD_VERSION = 1
 
@@ -70,6 +72,9 @@ class TrialSpec:
     """Fields the record carries besides the usual ones (a suite's name, the problem's
     number of objects); they describe the problem, so they are not in the key."""
     physics: bool = False
+    problem_dir: str = ""
+    """The problem file's folder: a mesh object's relative path resolves against it (the
+    trial loads the problem from its text, elsewhere). Not in the key: the text is."""
     """Settle a solved plan under gravity and record the check as ``physics``
     (:func:`~stalm.world.physics_check.check_physics`). Not in the key: it measures the plan
     and changes nothing the planner does."""
@@ -166,7 +171,9 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
     with temporary_folder("trial") as folder:
         problem_file = Path(folder) / f"{spec.problem}.yaml"
         problem_file.write_text(spec.problem_yaml, encoding="utf-8")
-        problem = load_problem(problem_file)
+        data = load_yaml(spec.problem_yaml, str(problem_file))
+        base_dir = Path(spec.problem_dir) if spec.problem_dir else None
+        problem = Problem(parse_problem(data, str(problem_file), base=base_dir), str(problem_file))
         arm_settings = spec.arm.config
         budget = dataclasses.replace(arm_settings.budget, time_budget_s=spec.time_budget_s)
         settings = resolve(
@@ -208,11 +215,12 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
     }
 
 
-def check_problem_name(name: str) -> tuple[str, str, float]:
-    """A problem's canonical name, YAML text and time budget, or a StalmError naming it."""
+def check_problem_name(name: str) -> tuple[str, str, float, str]:
+    """A problem's canonical name, YAML text, time budget and folder (what its relative mesh
+    paths resolve against), or a StalmError naming it."""
     problem = load_problem(name)
     try:
         text = Path(problem.source).read_text(encoding="utf-8")
     except OSError as error:
         raise StalmError(f"cannot read the problem file {problem.source}: {error}") from error
-    return problem.name, text, problem.spec.time_budget_s
+    return problem.name, text, problem.spec.time_budget_s, str(Path(problem.source).parent)

@@ -5,6 +5,7 @@ physics check's mass and centre of mass, and the pictures drawing the mesh's tri
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -263,3 +264,25 @@ def test_a_decomposition_is_cached_under_its_files_hash_and_resolution(
     assert first.name == f"{single.sha256[:32]}-vhacd{mesh_pieces.VHACD_RESOLUTION}.obj"
     monkeypatch.setattr(mesh_pieces, "VHACD_RESOLUTION", 2 * mesh_pieces.VHACD_RESOLUTION)
     assert mesh_pieces.decomposition_path(single) != first
+
+
+def test_an_experiment_finds_a_mesh_beside_its_problem_file(tmp_path, monkeypatch) -> None:
+    """A trial loads its problem from the file's text, in a folder of its own; a mesh path
+    relative to the problem file still resolves against the problem file's folder."""
+    import pybullet_data
+
+    from stalm.experiments.suites import build_plan, trial_specs
+    from stalm.experiments.trials import run_trial
+    from stalm.world.problem import shipped_problems_dir
+
+    source = Path(pybullet_data.getDataPath()) / "random_urdfs" / "258" / "258.obj"
+    (tmp_path / "plate.obj").write_bytes(source.read_bytes())
+    text = (shipped_problems_dir() / "mesh1.yaml").read_text()
+    mine = tmp_path / "mine.yaml"
+    mine.write_text(text.replace("pybullet_data:random_urdfs/258/258.obj", "plate.obj", 1))
+    monkeypatch.chdir(Path(pybullet_data.getDataPath()))  # anywhere but the problem's folder
+    plan = build_plan("table2", problems=(str(mine),), planners=("stalm-symbolic",), trials=1)
+    spec = trial_specs(plan)[0]
+    assert spec.problem_dir == str(tmp_path)
+    record = run_trial(dataclasses.replace(spec, time_budget_s=1.0))
+    assert "error" not in record, record.get("error")
