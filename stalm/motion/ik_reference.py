@@ -77,6 +77,13 @@ class PyBulletArm:
     def __init__(self, chain: UrdfChain) -> None:
         self.chain = chain
         self.client = p.connect(p.DIRECT)
+        try:
+            self._load(chain)
+        except BaseException:  # the client is this object's to close, even half built
+            p.disconnect(physicsClientId=self.client)
+            raise
+
+    def _load(self, chain: UrdfChain) -> None:
         self.body = p.loadURDF(str(chain.urdf), useFixedBase=True, physicsClientId=self.client)
         joints = [
             p.getJointInfo(self.body, j, physicsClientId=self.client)

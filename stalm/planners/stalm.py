@@ -41,7 +41,7 @@ from stalm.proposers.feedback_memory import FeedbackMemory, grounded_in_tree, gr
 from stalm.proposers.language_model import LLMProposer
 from stalm.proposers.model_backend import llm_backend, use_constraint
 from stalm.proposers.noisy import NoisyProposer, injected_records
-from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
+from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer, check_proposer
 from stalm.search import ConcretePlan, ConcretizeResult, SearchPolicies, TaskPlan, concretize
 from stalm.settings.tree import ProposerKind, RunSettings
 from stalm.trial.online import Decision, OnlinePlanner, Trial
@@ -312,6 +312,7 @@ def StalmPlanner(
     ``StalmPlanner(SymbolicProposer())`` runs what ``stalm solve --proposer symbolic`` runs.
     The registry builds STaLM w/o UCT with its ``name`` and :func:`best_prefix_first_action`.
     """
+    check_proposer(proposer)
     run_settings = with_proposer_kind(settings or RunSettings(), proposer)
     sims = run_settings.search.sims
     budget = N_BUDGET if sims is None else sims

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from stalm.domain.actions import DiscreteAction
+from stalm.errors import StalmError
 from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.feedback import FailedStep
 from stalm.world.problem import Problem
@@ -110,3 +111,24 @@ class TaskPlanProposer(Protocol):
     def propose(self, request: ProposalRequest) -> Proposal:
         """Up to ``request.n`` task plans from ``request.state``."""
         ...
+
+
+def check_proposer(proposer: object) -> None:
+    """A StalmError naming what ``proposer`` lacks of :class:`TaskPlanProposer`: a proposer
+    written for an older stalm (``propose(problem, state, literals, n, seed, ...)``, feedback
+    found from its signature) would otherwise fail with a traceback at its first query."""
+    missing = [
+        part
+        for part, present in (
+            ("name", hasattr(proposer, "name")),
+            ("takes_feedback", hasattr(proposer, "takes_feedback")),
+            ("propose(request)", callable(getattr(proposer, "propose", None))),
+        )
+        if not present
+    ]
+    if missing:
+        raise StalmError(
+            f"{type(proposer).__name__} is no task-plan proposer: it has no "
+            f"{', no '.join(missing)} (a proposer has a name, a takes_feedback flag and "
+            "propose(request) taking a ProposalRequest)"
+        )

@@ -86,6 +86,8 @@ def _pieces(path: Path, scale: float) -> MeshPieces:
     return convex_pieces(mesh_outline(path, scale))
 
 
+VHACD_TIMEOUT_S = 600.0
+"""The longest a decomposition may take (the LEGO brick takes 5-13 s at this resolution)."""
 _VHACD_SCRIPT = (
     "import sys, pybullet as p; "
     "p.vhacd(sys.argv[1], sys.argv[2], sys.argv[3], resolution=int(sys.argv[4]))"
@@ -103,12 +105,19 @@ def _decompose(source: Path, target: Path) -> None:
     log = temporary + ".log"
     try:
         arguments = [str(source), temporary, log, str(VHACD_RESOLUTION)]
-        subprocess.run(
-            [sys.executable, "-c", _VHACD_SCRIPT, *arguments],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            check=False,
-        )
+        try:
+            subprocess.run(
+                [sys.executable, "-c", _VHACD_SCRIPT, *arguments],
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                check=False,
+                timeout=VHACD_TIMEOUT_S,
+            )
+        except subprocess.TimeoutExpired:
+            raise StalmError(
+                f"V-HACD took over {VHACD_TIMEOUT_S:g} s to decompose the mesh {source}: give "
+                "its convex pieces as the OBJ's own 'o' groups"
+            ) from None
         try:
             read_obj.__wrapped__(Path(temporary))
         except ValueError:
@@ -122,10 +131,14 @@ def _decompose(source: Path, target: Path) -> None:
 
 def hull_volume_centroid(points: np.ndarray) -> tuple[float, np.ndarray]:
     """The volume (m^3) and centroid of the convex hull of ``points`` (n x 3): the hull's
-    facets as tetrahedra with an interior point, summed."""
-    from scipy.spatial import ConvexHull
+    facets as tetrahedra with an interior point, summed. A flat piece (fewer than four points
+    off one plane: an OBJ group may be a single face) has no volume and weighs nothing."""
+    from scipy.spatial import ConvexHull, QhullError
 
-    hull = ConvexHull(points)
+    try:
+        hull = ConvexHull(points)
+    except QhullError:
+        return 0.0, points.mean(axis=0)
     inside = points[hull.vertices].mean(axis=0)
     corners = points[hull.simplices]  # facets x 3 x 3
     volumes = (
@@ -149,5 +162,9 @@ def pieces_volume_centroid(pieces: MeshPieces) -> tuple[float, tuple[float, floa
     parts = [hull_volume_centroid(vertices) for vertices in pieces.vertices]
     volumes = np.array([volume for volume, _ in parts])
     total = float(volumes.sum())
+    if total <= 0.0:
+        raise StalmError(
+            f"the mesh {pieces.collision_file} has no piece that spans a volume: it has no mass"
+        )
     centre = (volumes[:, None] * np.array([centroid for _, centroid in parts])).sum(axis=0) / total
     return total, (float(centre[0]), float(centre[1]), float(centre[2]))

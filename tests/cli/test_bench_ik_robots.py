@@ -47,7 +47,7 @@ def test_each_arm_is_benchmarked_against_pybullet(monkeypatch, capsys, tmp_path:
         (row,) = json.loads(out.read_text())
         assert (row["robot"], row["joints"], row["targets"], row["seeds"]) == (robot, joints, 6, 20)
         assert row["solve_s"] > 0 and row["reference_solve_s"] > 0
-        assert 5 <= row["reached"] <= 6 and 0 <= row["reference_reached"] <= 6
+        assert 5 <= row["reached"] <= 6 and 3 <= row["reference_reached"] <= 6  # a live reference
         assert 0 <= row["missed"] <= row["reference_reached"]
         assert 1 <= row["mean_attempts"] <= 20
         assert f"IK of {robot}, fixed" in capsys.readouterr().out

@@ -379,3 +379,24 @@ def test_a_missing_file_and_an_unknown_robot_are_refused(tmp_path: Path) -> None
         read_chain(tmp_path / "none.urdf", "a", "b")
     with pytest.raises(StalmError, match="ur5"):
         load_robot("ur5")
+
+
+def test_a_reference_arm_that_cannot_be_built_closes_its_client() -> None:
+    """A chain naming a joint its URDF lacks fails the reference while it is being built; the
+    PyBullet client it had opened is closed, not leaked."""
+    import dataclasses
+
+    import pybullet
+
+    from stalm.motion.ik_reference import PyBulletArm
+
+    chain = known_chain("iiwa")
+    renamed = dataclasses.replace(chain.joints[0], name="no_such_joint")
+    broken = dataclasses.replace(chain, joints=(renamed, *chain.joints[1:]))
+    before = pybullet.connect(pybullet.DIRECT)
+    pybullet.disconnect(physicsClientId=before)
+    with pytest.raises(KeyError):
+        PyBulletArm(broken)
+    # the failed build opened the lowest free id (``before``'s again, or the next one)
+    for client in (before, before + 1):
+        assert not pybullet.getConnectionInfo(physicsClientId=client)["isConnected"], client

@@ -264,3 +264,18 @@ def test_a_proposer_that_found_no_plan_counts_as_no_plan_not_unparseable(problem
     first = result.details["step_log"][0]["proposals"][0]["plans"][0]
     assert first["kind"] == "no_plan" and first["unparseable"] is None
     assert first["no_plan"] == "the abstraction has no plan to the goal"
+
+
+def test_a_proposer_of_the_old_form_is_refused_naming_what_it_lacks() -> None:
+    class OldFormProposerDouble:
+        """Written for the positional propose(problem, state, ...) and no takes_feedback."""
+
+        name = "old-form-test-double"
+
+        def propose(self, problem, state, literals, n, seed, deadline=None):
+            raise AssertionError("never asked")
+
+    with pytest.raises(
+        StalmError, match="OldFormProposerDouble is no task-plan proposer: it has no takes_feedback"
+    ):
+        StalmPlanner(OldFormProposerDouble())

@@ -286,3 +286,15 @@ def test_an_experiment_finds_a_mesh_beside_its_problem_file(tmp_path, monkeypatc
     assert spec.problem_dir == str(tmp_path)
     record = run_trial(dataclasses.replace(spec, time_budget_s=1.0))
     assert "error" not in record, record.get("error")
+
+
+def test_a_flat_piece_of_a_mesh_weighs_nothing_and_breaks_nothing(tmp_path) -> None:
+    """An OBJ group may be a single face: its hull has no volume (Qhull refuses it), so it
+    adds no mass, and the mass and centre of mass come from the pieces that have volume."""
+    from stalm.world.mesh_pieces import hull_volume_centroid
+
+    tetrahedron = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float)
+    triangle = np.array([[2, 2, 2], [3, 2, 2], [2, 3, 2]], dtype=float)
+    assert hull_volume_centroid(triangle)[0] == 0.0
+    volume, centre = hull_volume_centroid(tetrahedron)
+    assert volume == pytest.approx(1 / 6) and centre == pytest.approx([0.25, 0.25, 0.25])
