@@ -40,18 +40,11 @@ from stalm.settings.io import with_overrides, with_values
 from stalm.settings.tree import RunSettings
 from stalm.trial.replay import ReplayReport, replay_plan
 from stalm.trial.result import PlanResult
+from stalm.world.object_spec import ObjectSpec
 from stalm.world.physics_check import PhysicsReport, check_physics
 from stalm.world.problem import Problem, load_problem
 from stalm.world.problem_file import parse_problem
-from stalm.world.spec import (
-    DoorSpec,
-    GoalSpec,
-    ObjectSpec,
-    ProblemSpec,
-    RegionSpec,
-    RobotSpec,
-    WallSpec,
-)
+from stalm.world.spec import DoorSpec, GoalSpec, ProblemSpec, RegionSpec, RobotSpec, WallSpec
 from stalm.world.state import State
 
 __all__ = [

@@ -32,8 +32,9 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 from stalm.errors import StalmError
 from stalm.files import MAX_PROBLEM_FILE_BYTES, load_yaml, read_text
 from stalm.generate.arrange import Knobs, Slots, capacity
+from stalm.world.object_spec import ObjectSpec
 from stalm.world.problem_file import parse_problem
-from stalm.world.spec import GoalSpec, ObjectSpec, ProblemSpec, RegionSpec, WallSpec
+from stalm.world.spec import GoalSpec, ProblemSpec, RegionSpec, WallSpec
 from stalm.world.spec_values import Name, Vec2
 
 HERE = Path(__file__).parent

@@ -21,7 +21,8 @@ from stalm.geometry.transforms import (
 )
 from stalm.world import robot as robot_model
 from stalm.world.grip_widths import hull_widths, too_wide
-from stalm.world.spec import GRILL_HANDLE_REACH, ObjectSpec, RegionSpec
+from stalm.world.object_spec import GRILL_HANDLE_REACH, ObjectSpec
+from stalm.world.spec import RegionSpec
 from stalm.world.state import ObjectPose
 
 PITCH_RANGE = (0.0, math.radians(45.0))

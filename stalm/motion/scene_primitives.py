@@ -23,8 +23,8 @@ from stalm.motion.panda_spheres import panda_spheres
 from stalm.motion.sphere_fit import CONTACT_MARGIN
 from stalm.world import robot as robot_model
 from stalm.world.mesh_pieces import object_pieces
+from stalm.world.object_spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
 from stalm.world.scene import Sim
-from stalm.world.spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
 from stalm.world.state import Grasp
 
 BOXED_SHAPES = ("grill", "box", "mesh")

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from stalm.world.spec import GRILL_HANDLE_HALF_HEIGHT, ObjectSpec
+from stalm.world.object_spec import GRILL_HANDLE_HALF_HEIGHT, ObjectSpec
 
 CLOSING_DIRECTIONS = 720
 """Horizontal closing directions a mesh's widths are measured along (every quarter degree

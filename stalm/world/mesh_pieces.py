@@ -23,7 +23,7 @@ import numpy as np
 from stalm.cache_dir import stalm_cache_dir
 from stalm.errors import StalmError
 from stalm.world.mesh_files import MeshOutline, mesh_outline, read_obj
-from stalm.world.spec import ObjectSpec
+from stalm.world.object_spec import ObjectSpec
 
 VHACD_RESOLUTION = 100_000
 """V-HACD's voxel count: a tenth of its default, which took 50 s and 83 pieces on the LEGO

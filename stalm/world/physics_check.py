@@ -36,10 +36,10 @@ from stalm.errors import StalmError
 from stalm.geometry.transforms import yaw_quat
 from stalm.world import robot as robot_model
 from stalm.world.mesh_pieces import object_pieces, pieces_volume_centroid
+from stalm.world.object_spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
 from stalm.world.problem import Problem
 from stalm.world.scene import ARM_JOINTS, GRASP_LINK
 from stalm.world.scene_build import FINGER_JOINTS, build_bodies, object_shapes
-from stalm.world.spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
 from stalm.world.state import ObjectPose, State
 
 GRAVITY = -9.81

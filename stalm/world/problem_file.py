@@ -19,7 +19,8 @@ from pydantic import ValidationError
 
 from stalm.errors import StalmError
 from stalm.files import MAX_PROBLEM_FILE_BYTES, excerpt, load_yaml, read_text
-from stalm.world.spec import MESH_BASE_CONTEXT, ProblemSpec
+from stalm.world.object_spec import MESH_BASE_CONTEXT
+from stalm.world.spec import ProblemSpec
 
 MAX_ERROR_LINES = 6
 """Validation problems listed at most (a file with hundreds of them is not the user's typo)."""

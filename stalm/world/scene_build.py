@@ -19,14 +19,8 @@ import pybullet_data
 from stalm.geometry.transforms import yaw_quat
 from stalm.world import robot as robot_model
 from stalm.world.mesh_pieces import object_pieces
-from stalm.world.spec import (
-    GRILL_HANDLE_HALF_HEIGHT,
-    GRILL_HANDLE_REACH,
-    DoorSpec,
-    ObjectSpec,
-    ProblemSpec,
-    RegionSpec,
-)
+from stalm.world.object_spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
+from stalm.world.spec import DoorSpec, ProblemSpec, RegionSpec
 
 FINGER_JOINTS = (9, 10)
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import re
 from typing import Annotated
 
-from pydantic import AfterValidator, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
 _NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,63}")
 
@@ -55,3 +55,10 @@ __all__ = [
     "Vec2",
     "Vec3",
 ]
+
+
+class SpecModel(BaseModel):
+    """The base of every spec model: unknown fields refused, frozen, and no NaN or infinity
+    (NaN passes every comparison check, NaN > x being false, and crashes much later)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)

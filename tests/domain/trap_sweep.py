@@ -36,8 +36,8 @@ from stalm.motion.ik import NOMINAL_ARM, refine
 from stalm.motion.manipulation import ArmMotion, placing_hand
 from stalm.motion.reach import leave_waypoints, reach_waypoints, solution_conf
 from stalm.world import robot as robot_model
+from stalm.world.object_spec import ObjectSpec
 from stalm.world.problem import Problem
-from stalm.world.spec import ObjectSpec
 from stalm.world.state import Grasp, ObjectPose, RobotConf, State
 
 

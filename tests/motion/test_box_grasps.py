@@ -26,8 +26,9 @@ from stalm.motion.grasps import (
 from stalm.predicates.engine import PredicateEngine
 from stalm.predicates.samples import PredicateSettings
 from stalm.world import robot as robot_model
+from stalm.world.object_spec import ObjectSpec
 from stalm.world.problem import Problem, load_problem
-from stalm.world.spec import ObjectSpec, ProblemSpec
+from stalm.world.spec import ProblemSpec
 from stalm.world.state import ObjectPose
 
 BOX1 = Path(__file__).resolve().parents[2] / "stalm" / "problems" / "box1.yaml"

@@ -18,11 +18,12 @@ from stalm.viz.render import top_down
 from stalm.viz.view_data import scene_meshes
 from stalm.world import robot as robot_model
 from stalm.world.grip_widths import narrowest_grip, too_wide
+from stalm.world.object_spec import ObjectSpec
 from stalm.world.physics_check import centre_of_mass
 from stalm.world.problem import load_problem
 from stalm.world.problem_file import load_problem_file
 from stalm.world.scene import Sim
-from stalm.world.spec import ObjectSpec, footprints_overlap
+from stalm.world.spec import footprints_overlap
 from tests.cli_runner import run_cli
 
 BOX1 = Path(__file__).resolve().parents[2] / "stalm" / "problems" / "box1.yaml"

@@ -20,11 +20,11 @@ from stalm.world import mesh_pieces
 from stalm.world import robot as robot_model
 from stalm.world.grip_widths import hull_widths, narrowest_grip, too_wide
 from stalm.world.mesh_files import mesh_outline, resolve_mesh_path
+from stalm.world.object_spec import ObjectSpec
 from stalm.world.physics_check import MESH_DENSITY_KG_M3, centre_of_mass, object_mass
 from stalm.world.problem import load_problem
 from stalm.world.problem_file import load_problem_file
 from stalm.world.scene import Sim
-from stalm.world.spec import ObjectSpec
 
 MESH1 = Path(__file__).resolve().parents[2] / "stalm" / "problems" / "mesh1.yaml"
 
