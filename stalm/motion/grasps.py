@@ -245,15 +245,9 @@ def nearest_grasp_point(
     obj: ObjectSpec, pose: ObjectPose, base: tuple[float, float, float]
 ) -> tuple[float, float, float]:
     """The object's grasp point nearest the standing pose, in world coordinates."""
-    best: tuple[float, float, float] | None = None
-    best_distance = math.inf
-    for gx, gy, gz in grasp_points(obj):
-        wx, wy = se2_to_world((pose.x, pose.y, pose.yaw), gx, gy)
-        distance = math.hypot(wx - base[0], wy - base[1])
-        if distance < best_distance - 1e-9:
-            best, best_distance = (wx, wy, pose.z + gz), distance
-    assert best is not None
-    return best
+    gx, gy, gz = _nearest_local(obj, pose, base)
+    wx, wy = se2_to_world((pose.x, pose.y, pose.yaw), gx, gy)
+    return (wx, wy, pose.z + gz)
 
 
 def gripper_target(
