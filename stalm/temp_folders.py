@@ -63,11 +63,19 @@ def process_alive(pid: int) -> bool:
     return True
 
 
-def remove_leftovers(root: Path | None = None) -> list[Path]:
+def remove_leftovers(root: Path | None = None, *, mine_too: bool = False) -> list[Path]:
     """Remove the stalm folders in ``root`` (default: the system's temporary folder) whose
     process has ended, and return them. Only this user's folders, never a symbolic link;
-    a folder that cannot be listed or removed is left (the next run tries again)."""
+    a folder that cannot be listed or removed is left (the next run tries again).
+
+    ``mine_too`` also removes this process's own folders: for a run that a stop signal has
+    unwound, when none of them is in use any more. A signal that arrives inside
+    :func:`tempfile.mkdtemp`, after the folder is made and before :func:`temporary_folder`'s
+    ``try`` holds it, leaves that folder behind otherwise (a handler runs between any two
+    bytecodes; blocking the signals around the call would not cover a signal delivered to
+    another thread, whose handler still runs in the main one)."""
     root = Path(tempfile.gettempdir()) if root is None else root
+    own = os.getpid() if mine_too else None
     removed: list[Path] = []
     try:
         entries = list(os.scandir(root))
@@ -76,7 +84,10 @@ def remove_leftovers(root: Path | None = None) -> list[Path]:
     me = os.getuid() if hasattr(os, "getuid") else None
     for entry in entries:
         found = _NAME.match(entry.name)
-        if found is None or process_alive(int(found.group(1))):
+        if found is None:
+            continue
+        pid = int(found.group(1))
+        if pid != own and process_alive(pid):
             continue
         try:
             if not entry.is_dir(follow_symlinks=False):

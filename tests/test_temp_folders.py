@@ -108,3 +108,74 @@ def test_every_command_starts_by_removing_leftovers(monkeypatch, tmp_path: Path)
     leftover.mkdir()
     assert run_cli(monkeypatch, "planners") == 0
     assert not leftover.exists()
+
+
+def test_a_run_unwound_by_a_stop_also_removes_its_own_folders(tmp_path: Path) -> None:
+    dead = _dead_pid()
+    mine = tmp_path / f"stalm-fd-{os.getpid()}-abcd"
+    theirs = tmp_path / f"stalm-trial-{dead}-abcd"
+    alive = tmp_path / f"stalm-trial-{os.getppid()}-abcd"  # another run, still going
+    for folder in (mine, theirs, alive):
+        folder.mkdir()
+    assert remove_leftovers(tmp_path) == [theirs]
+    assert mine.is_dir()
+    assert remove_leftovers(tmp_path, mine_too=True) == [mine]
+    assert alive.is_dir()
+
+
+def _mkdtemp_then_stopped(monkeypatch, signum: int) -> list[str]:
+    """Make ``tempfile.mkdtemp`` in :mod:`stalm.temp_folders` make its folder and then raise
+    Stopped, as a signal that arrives right after the ``mkdir`` does (CI saw one, issue 41's
+    stop 50: a HUP during a solve left ``stalm-fd-*`` behind)."""
+    import tempfile
+
+    from stalm.stopping import Stopped
+
+    real = tempfile.mkdtemp
+    made: list[str] = []
+
+    def made_then_stopped(*args, **kwargs) -> str:
+        made.append(real(*args, **kwargs))
+        raise Stopped(signum)
+
+    monkeypatch.setattr("stalm.temp_folders.tempfile.mkdtemp", made_then_stopped)
+    return made
+
+
+def test_a_stop_inside_mkdtemp_leaves_no_folder_after_a_solve(monkeypatch, tmp_path: Path) -> None:
+    import signal
+
+    from tests.cli_runner import run_cli
+
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    made = _mkdtemp_then_stopped(monkeypatch, signal.SIGHUP)
+    code = run_cli(monkeypatch, "solve", "P2", "--proposer", "symbolic")
+    assert code == 128 + signal.SIGHUP
+    assert len(made) == 1 and Path(made[0]).name.startswith("stalm-fd-")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_worker_stopped_inside_mkdtemp_removes_its_folder(monkeypatch, tmp_path: Path) -> None:
+    import signal
+
+    from stalm.experiments import runner
+
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    made = _mkdtemp_then_stopped(monkeypatch, signal.SIGTERM)
+
+    def trial_making_a_folder(spec: object) -> dict[str, object]:
+        with temporary_folder("trial"):
+            raise AssertionError("the stop came first")
+
+    class Exited(Exception):
+        pass
+
+    def exit_raising(code: int) -> None:
+        raise Exited(code)
+
+    monkeypatch.setattr(runner, "run_trial", trial_making_a_folder)
+    monkeypatch.setattr(runner.os, "_exit", exit_raising)
+    with pytest.raises(Exited) as exited:
+        runner.run_trial_in_worker(object())  # type: ignore[arg-type]
+    assert exited.value.args == (128 + signal.SIGTERM,)
+    assert len(made) == 1 and list(tmp_path.iterdir()) == []

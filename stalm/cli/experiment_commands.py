@@ -24,6 +24,7 @@ from stalm.cli.display import printable, shown
 from stalm.cli.settings_options import SET_HELP, SETTINGS_HELP, command_settings, given
 from stalm.errors import StalmError
 from stalm.stopping import Stopped, stop_code, stop_message
+from stalm.temp_folders import remove_leftovers
 
 if TYPE_CHECKING:
     from stalm.experiments.trials import Arm
@@ -241,6 +242,7 @@ def experiment_command(
                     specs, log, workers=workers, ray_address=ray, on_record=on_record
                 )
             except (KeyboardInterrupt, Stopped) as stop:
+                remove_leftovers(mine_too=True)  # one the signal cut off before its ``try``
                 console.print(
                     f"[yellow]{stop_message(stop)}:[/] {ran} trials saved in {log.path}; run "
                     "the same command to resume",

@@ -92,6 +92,7 @@ def main() -> None:
                 # whatever it interrupted has been cleaned up on the way here (stalm.stopping)
                 ERROR_CONSOLE.print(f"[yellow]{stop_message(stop)}[/]", highlight=False)
                 code = stop_code(stop)
+                remove_leftovers(mine_too=True)  # one the signal cut off before its ``try``
     except SystemExit as done:
         code = done.code
     end_helper_processes()  # after the run's traceback and its pool are gone

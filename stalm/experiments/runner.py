@@ -25,6 +25,7 @@ from stalm.cores import check_process_count, usable_cores
 from stalm.errors import StalmError
 from stalm.experiments.results_log import ResultsLog
 from stalm.experiments.trials import TrialSpec, run_trial
+from stalm.temp_folders import remove_leftovers
 
 OnRecord = Callable[[dict[str, Any]], None]
 
@@ -178,6 +179,7 @@ def run_trial_in_worker(spec: TrialSpec) -> dict[str, Any]:
     try:
         return run_trial(spec)
     except stopping.Stopped as stop:
+        remove_leftovers(mine_too=True)  # one the signal cut off before its ``try``
         os._exit(stop.exit_code)
     finally:
         _in_trial = False
