@@ -15,7 +15,7 @@ import numpy as np
 from stalm.domain.actions import DiscreteAction, Open, Pick, Place
 from stalm.domain.outcome import Infeasibility, Outcome
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
-from stalm.domain.samplers import CARRY_CONF, Samplers, SamplerSettings
+from stalm.domain.samplers import Samplers, SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.geometry.transforms import wrap_angle
 from stalm.motion.base_motion import BasePlanner
@@ -147,7 +147,7 @@ class Domain:
             offset = state.pose(discrete.obj).yaw - stand[2]
             return state.with_changes(
                 remove=discrete.obj,
-                robot=_carry(stand),
+                robot=self._carry(stand),
                 held=params.grasp,
                 held_yaw_offset=wrap_angle(offset),
             )
@@ -156,14 +156,19 @@ class Domain:
             stand = params.base_path.corners[-1]
             return state.with_changes(
                 poses={discrete.obj: params.placement},
-                robot=_carry(stand),
+                robot=self._carry(stand),
                 held=None,
                 held_yaw_offset=0.0,
             )
         assert isinstance(discrete, Open)
         return state.with_changes(
-            robot=_carry(params.base_path.corners[-1]), open_door=discrete.door
+            robot=self._carry(params.base_path.corners[-1]), open_door=discrete.door
         )
+
+    def _carry(self, stand: tuple[float, float, float]) -> RobotConf:
+        """The robot at ``stand`` with its arm folded, as it drives after every action."""
+        carry = self.sim.robot.carry_conf
+        return RobotConf.make(stand, carry[0], carry[1:])
 
     def reward(self, state: State, next_state: State) -> float:
         """+3 per goal conjunct made true, -3 per goal conjunct made false, +100 at the goal.
@@ -206,7 +211,3 @@ class Domain:
         if isinstance(drawn, Infeasibility):
             return None, self.infeasible(state, drawn)
         return drawn, self.step(state, drawn)
-
-
-def _carry(stand: tuple[float, float, float]) -> RobotConf:
-    return RobotConf.make(stand, CARRY_CONF[0], CARRY_CONF[1:])

@@ -25,7 +25,7 @@ from collections.abc import Sequence
 from stalm.domain.params import Action, PickParams, PlaceParams
 from stalm.motion.arm_motion import interpolated_length
 from stalm.motion.base_motion import BasePath, densified_length
-from stalm.world.robot import ARM_JOINT_LIMITS, LIFT_RANGE
+from stalm.world.robot_description import Robot
 from stalm.world.spec import ProblemSpec
 from stalm.world.spec_values import MAX_EXTENT
 
@@ -46,10 +46,10 @@ GRASP_MARGIN = 0.05
 above its rim)."""
 
 
-def out_of_bounds(spec: ProblemSpec, action: Action) -> str | None:
-    """None if every number of ``action`` is one the robot in ``spec``'s world can have and its
-    dense motions are of a size a replay can sweep; else the first that is not, naming the
-    field as the plan file does."""
+def out_of_bounds(spec: ProblemSpec, robot: Robot, action: Action) -> str | None:
+    """None if every number of ``action`` is one ``robot`` in ``spec``'s world can have and
+    its dense motions are of a size a replay can sweep; else the first that is not, naming
+    the field as the plan file does."""
     params = action.params
     corners = params.base_path.corners
     for index, (x, y, yaw) in enumerate(corners):
@@ -57,20 +57,20 @@ def out_of_bounds(spec: ProblemSpec, action: Action) -> str | None:
         if why:
             return why
     for index, conf in enumerate(params.arm_waypoints):
-        if why := _beyond_limits(conf, f"arm_waypoints[{index}]"):
+        if why := _beyond_limits(robot, conf, f"arm_waypoints[{index}]"):
             return why
     if isinstance(params, PickParams):
         why = _angle(params.pitch, "pitch") or _angle(params.yaw, "yaw")
-        why = why or _beyond_limits(params.grasp_conf, "grasp_conf")
+        why = why or _beyond_limits(robot, params.grasp_conf, "grasp_conf")
         why = why or _grasp_failure(spec, action.discrete.as_tuple()[1], params)
     elif isinstance(params, PlaceParams):
         placement = params.placement
         why = _off_floor(spec, placement.x, placement.y, "placement")  # its yaw is wrapped
         if why is None and not 0.0 <= placement.z <= MAX_EXTENT:
             why = f"'placement' height {placement.z:g} m is not between 0 and {MAX_EXTENT:g}"
-        why = why or _beyond_limits(params.place_conf, "place_conf")
+        why = why or _beyond_limits(robot, params.place_conf, "place_conf")
     else:
-        why = _beyond_limits(params.handle_conf, "handle_conf")
+        why = _beyond_limits(robot, params.handle_conf, "handle_conf")
     return why or _too_long(params.base_path, params.arm_waypoints)
 
 
@@ -87,12 +87,17 @@ def _angle(value: float, what: str) -> str | None:
     return f"'{what}' angle {value:g} rad is beyond +-{MAX_EXTENT:g}, what a problem may hold"
 
 
-def _beyond_limits(conf: Sequence[float], what: str) -> str | None:
-    """Why the lift or a joint of ``conf`` lies outside the robot's limits, if one does."""
-    low, high = LIFT_RANGE
+def _beyond_limits(robot: Robot, conf: Sequence[float], what: str) -> str | None:
+    """Why the lift or a joint of ``conf`` lies outside ``robot``'s limits, if one does."""
+    if len(conf) != 1 + len(robot.joint_limits):
+        return (
+            f"'{what}' has {len(conf)} numbers: {robot.name}'s configuration is the lift and "
+            f"{len(robot.joint_limits)} joints"
+        )
+    low, high = robot.mobile_mount.lift_range
     if not low - LIMIT_TOLERANCE <= conf[0] <= high + LIMIT_TOLERANCE:
         return f"'{what}' lift {conf[0]:g} m is outside its range [{low:g}, {high:g}]"
-    joints = zip(conf[1:], ARM_JOINT_LIMITS, strict=True)
+    joints = zip(conf[1:], robot.joint_limits, strict=True)
     for joint, (value, (low, high)) in enumerate(joints, start=1):
         if not low - LIMIT_TOLERANCE <= value <= high + LIMIT_TOLERANCE:
             return (

@@ -31,14 +31,11 @@ from stalm.motion.grasps import (
     sample_grasp_angles,
 )
 from stalm.motion.manipulation import ArmMotion, Manipulator, handle_target, placing_hand
-from stalm.world import robot as robot_model
 from stalm.world.grip_widths import too_wide
 from stalm.world.relations import direction_between, supporting_region
 from stalm.world.scene import Sim
 from stalm.world.spec import RegionSpec
 from stalm.world.state import Grasp, ObjectPose, RobotConf, State
-
-CARRY_CONF = robot_model.CARRY_CONF
 
 
 @dataclass(frozen=True)
@@ -140,7 +137,7 @@ class Samplers:
             return path
         window = grasp_window(obj, pose, stand, self.settings.pitch_range, self.settings.yaw_range)
         if window is None:
-            wide = too_wide(obj, robot_model.GRIPPER_GAP)
+            wide = too_wide(obj, self.sim.robot.gripper.opening)
             return Infeasibility(
                 "no_ik",
                 f"'{action.obj}': {wide}"
@@ -332,7 +329,8 @@ class Samplers:
                         self.names(hits),
                     )
                     continue
-                self.sim.set_robot(RobotConf.make(stand, CARRY_CONF[0], CARRY_CONF[1:]))
+                carry = self.sim.robot.carry_conf
+                self.sim.set_robot(RobotConf.make(stand, carry[0], carry[1:]))
                 self.sim.set_door(action.door, True)
                 hits = {b for b in self.sim.contacts_of([door_body]) if not self.sim.is_static(b)}
                 self.sim.set_door(action.door, False)

@@ -57,7 +57,7 @@ def action_to_json(action: Action) -> dict[str, Any]:
 
 
 CONF_LENGTH = len(CARRY_CONF)
-"""A configuration is the lift height and the seven arm joints."""
+"""The Panda's configuration: the lift height and its seven arm joints."""
 
 
 def _numbers(value: Any, length: int, what: str) -> tuple[float, ...]:
@@ -88,8 +88,9 @@ def _sequence(value: Any, length: int, what: str) -> tuple[tuple[float, ...], ..
     return tuple(_numbers(item, length, f"{what}[{i}]") for i, item in enumerate(value))
 
 
-def action_from_json(data: dict[str, Any]) -> Action:
+def action_from_json(data: dict[str, Any], conf_length: int = CONF_LENGTH) -> Action:
     """The inverse of :func:`action_to_json`; a malformed entry raises :class:`StalmError`.
+    A configuration holds ``conf_length`` numbers (the lift and the robot's joints).
 
     Every number must be finite and every list the right length, and the key configuration
     of a pick or place must be one of its waypoints (the motion is split there).
@@ -99,13 +100,13 @@ def action_from_json(data: dict[str, Any]) -> Action:
     try:
         discrete = discrete_from_json(data["action"])
         path = BasePath(_sequence(data["base_path"], 3, "base_path"))  # type: ignore[arg-type]
-        waypoints = _sequence(data["arm_waypoints"], CONF_LENGTH, "arm_waypoints")
+        waypoints = _sequence(data["arm_waypoints"], conf_length, "arm_waypoints")
         params: PickParams | PlaceParams | OpenParams
         if isinstance(discrete, Pick):
             grasp = data["grasp"]
             if not isinstance(grasp, dict):
                 raise StalmError("'grasp' must be an object with 'position' and 'orientation'")
-            grasp_conf = _numbers(data["grasp_conf"], CONF_LENGTH, "grasp_conf")
+            grasp_conf = _numbers(data["grasp_conf"], conf_length, "grasp_conf")
             _key_conf_in(grasp_conf, waypoints, "grasp_conf")
             params = PickParams(
                 path,
@@ -120,7 +121,7 @@ def action_from_json(data: dict[str, Any]) -> Action:
                 waypoints,
             )
         elif isinstance(discrete, Place):
-            place_conf = _numbers(data["place_conf"], CONF_LENGTH, "place_conf")
+            place_conf = _numbers(data["place_conf"], conf_length, "place_conf")
             _key_conf_in(place_conf, waypoints, "place_conf")
             params = PlaceParams(
                 path,
@@ -129,7 +130,7 @@ def action_from_json(data: dict[str, Any]) -> Action:
                 waypoints,
             )
         else:
-            handle_conf = _numbers(data["handle_conf"], CONF_LENGTH, "handle_conf")
+            handle_conf = _numbers(data["handle_conf"], conf_length, "handle_conf")
             params = OpenParams(path, handle_conf, waypoints)
     except KeyError as error:
         raise StalmError(f"malformed action in plan: no {error}") from None

@@ -29,6 +29,7 @@ import numpy as np
 from stalm.geometry.transforms import Pose3, quat_from_matrix
 from stalm.motion import ik, panda
 from stalm.motion.arm_kinematics import ArmKinematics
+from stalm.motion.arm_model import PANDA_NOMINAL_ARM
 from stalm.motion.ik_reference import PyBulletArm, pybullet_refine
 from stalm.motion.robot_chain import robot_chain
 from stalm.world import robot as robot_model
@@ -49,7 +50,7 @@ def reachable_targets(sim: Sim, count: int, rng: np.random.Generator) -> list[Ta
     for index in range(count):
         stand = stands[index % len(stands)]
         lift = float(rng.uniform(*robot_model.LIFT_RANGE))
-        q = np.clip(np.array(ik.NOMINAL_ARM) + rng.normal(0.0, 0.5, 7), lows, highs)
+        q = np.clip(np.array(PANDA_NOMINAL_ARM) + rng.normal(0.0, 0.5, 7), lows, highs)
         frame = panda.link_frames(panda.base_frame(robot_model.arm_mount(stand, lift)), q)
         grasp = frame[panda.GRASP]
         x, y, z = (float(v) for v in grasp[:3, 3])
@@ -70,7 +71,7 @@ def _solve_all(
     start = time.perf_counter()
     for (stand, pose, lift), random_seed in zip(targets, seeds, strict=True):
         hit = False
-        for seed in (ik.NOMINAL_ARM, random_seed):
+        for seed in (PANDA_NOMINAL_ARM, random_seed):
             attempts += 1
             if refine(stand, pose, lift, seed) is not None:
                 hit = True
@@ -88,8 +89,12 @@ def bench_problem(name: str, count: int = 200, seed: int = 0) -> dict[str, objec
         lows = [lo for lo, _ in robot_model.ARM_JOINT_LIMITS]
         highs = [hi for _, hi in robot_model.ARM_JOINT_LIMITS]
         seeds = [tuple(float(v) for v in rng.uniform(lows, highs)) for _ in targets]
-        ik.refine(*targets[0][:2], targets[0][2], ik.NOMINAL_ARM)  # compiled code loaded
-        compiled_s, compiled_reached = _solve_all(ik.refine, targets, seeds)
+        ik.refine(sim, *targets[0][:2], targets[0][2], PANDA_NOMINAL_ARM)  # compiled code loaded
+        compiled_s, compiled_reached = _solve_all(
+            lambda stand, pose, lift, start: ik.refine(sim, stand, pose, lift, start),
+            targets,
+            seeds,
+        )
         reference_s, reference_reached = _solve_all(
             lambda stand, pose, lift, start: pybullet_refine(sim, stand, pose, lift, start),
             targets,

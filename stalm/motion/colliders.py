@@ -22,10 +22,9 @@ from typing import Literal, Protocol
 
 import numpy as np
 
-from stalm.motion import panda
+from stalm.motion.arm_model import arm_of
 from stalm.motion.collision_kernels import candidate_steps
 from stalm.motion.scene_primitives import ScenePrimitives
-from stalm.world import robot as robot_model
 from stalm.world.scene import Sim
 
 Engine = Literal["batched", "pybullet"]
@@ -36,10 +35,11 @@ Reach = tuple[float, float, float, float]
 """A reach line seen from above: the arm's mount (x, y) and the grasp point (x, y)."""
 
 
-def reach_line(stand: SE2, conf: Conf) -> Reach:
-    """The reach line of ``conf`` (lift, 7 joints) at ``stand``, by forward kinematics."""
-    mount = robot_model.arm_mount(stand, conf[0])
-    hand = panda.link_frames(panda.base_frame(mount), np.asarray(conf[1:]))[panda.GRASP]
+def reach_line(sim: Sim, stand: SE2, conf: Conf) -> Reach:
+    """The reach line of ``conf`` (lift, joints) at ``stand``, by forward kinematics."""
+    arm = arm_of(sim)
+    mount = sim.arm_mount(stand, conf[0])
+    hand = arm.frames(arm.base_frame(mount), np.asarray(conf[1:]))[arm.grasp_frame]
     return (mount.x, mount.y, float(hand[0, 3]), float(hand[1, 3]))
 
 
@@ -97,11 +97,11 @@ class PyBulletCollider:
         sim = self.sim
         hits: set[int] = set()
         for conf in confs:
-            sim.set_arm_at(robot_model.arm_mount(stand, conf[0]), conf[1:])
+            sim.set_arm_at(sim.arm_mount(stand, conf[0]), conf[1:])
             hits |= sim.contacts_of(moving, ignore | {sim.bodies.base})
             if hits & stop_at:
                 break
-        return hits, [reach_line(stand, conf) for conf in confs]
+        return hits, [reach_line(sim, stand, conf) for conf in confs]
 
     def arm_first_touch(self, stand: SE2, confs: Sequence[Conf], ignore: set[int]) -> set[int]:
         for conf in confs:
@@ -151,7 +151,8 @@ class BatchCollider:
         self._scene = ScenePrimitives(sim)
         self._columns = self._scene.columns
         self._column_of = self._scene.column_of
-        self._chain = panda.panda_chain()
+        self._arm = arm_of(sim)
+        self._conf_length = 1 + self._arm.dof
 
     def _candidates(
         self,
@@ -162,18 +163,12 @@ class BatchCollider:
         only: int | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         boxes, cylinders = self._scene.world(ignore, only)
-        chain = self._chain
         links, centres, radii, groups, held_boxes, held_box_group = self._scene.with_held()
-        reach = np.empty((len(confs), 4))
+        frames, reach = self._arm.step_frames(stands, confs)
         flags = candidate_steps(
             stands,
-            confs,
-            robot_model.ARM_MOUNT_FORWARD,
-            panda.BASE_INERTIAL_Z,
-            chain.revolute,
-            chain.hand,
-            chain.fingers,
-            chain.grasp,
+            frames,
+            self._arm.grasp_frame,
             links,
             centres,
             radii,
@@ -185,7 +180,6 @@ class BatchCollider:
             boxes,
             cylinders,
             len(self._columns),
-            reach,
         )
         return flags, reach
 
@@ -237,13 +231,13 @@ class BatchCollider:
         stop_at: frozenset[int] = frozenset(),
     ) -> tuple[set[int], list[Reach]]:
         sim = self.sim
-        array = np.asarray(confs, dtype=float).reshape(-1, 8)
+        array = np.asarray(confs, dtype=float).reshape(-1, self._conf_length)
         stands = np.tile(np.asarray(stand, dtype=float), (len(array), 1))
         flags, reach = self._candidates(stands, array, ignore | {sim.bodies.base}, False)
 
         def set_step(step: int) -> None:
             conf = confs[step]
-            sim.set_arm_at(robot_model.arm_mount(stand, conf[0]), conf[1:])
+            sim.set_arm_at(sim.arm_mount(stand, conf[0]), conf[1:])
 
         _, hits = self._confirm(flags, set_step, lambda: moving, first=False, stop_at=stop_at)
         return hits, [(a, b, c, d) for a, b, c, d in reach.tolist()]
@@ -252,7 +246,7 @@ class BatchCollider:
         sim = self.sim
         if not confs:
             return set()
-        array = np.asarray(confs, dtype=float).reshape(-1, 8)
+        array = np.asarray(confs, dtype=float).reshape(-1, self._conf_length)
         stands = np.tile(np.asarray(stand, dtype=float), (len(array), 1))
         flags, _ = self._candidates(stands, array, ignore | {sim.bodies.base}, False)
         arm = sim.robot_bodies()[1:]
@@ -302,7 +296,7 @@ class BatchCollider:
         sim.set_base_only(stand)  # the base stands still at every configuration
         if sim.touches([sim.bodies.base], body):
             return True
-        array = np.asarray(confs, dtype=float).reshape(-1, 8)
+        array = np.asarray(confs, dtype=float).reshape(-1, self._conf_length)
         stands = np.tile(np.asarray(stand, dtype=float), (len(array), 1))
         flags, _ = self._candidates(stands, array, (), False, only=body)
 

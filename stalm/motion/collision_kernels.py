@@ -1,7 +1,8 @@
 """Compiled candidate tests: which bodies a robot motion may touch, for many steps at once.
 
 A step is one arm configuration at a standing pose, or one base pose of a route with the arm
-as it is. The robot is the sphere model of the arm (:mod:`stalm.motion.panda_spheres`), plus
+as it is. The robot is the sphere model of the arm (:mod:`stalm.motion.arm_model`) on its frames at
+each step, computed before (by the arm's own compiled forward kinematics), plus
 boxes for what moves with it: the base column (its cylinder's bounding box) on a route, the
 held object's boxes in the gripper frame. The world is boxes (walls, counters, tables, door
 panels and handles, the grill's parts) and upright cylinders (cans, bottles, plates). Each
@@ -34,7 +35,6 @@ from stalm.motion.collision_primitives import (
     sphere_touches_box,
     sphere_touches_cylinder,
 )
-from stalm.motion.panda import GRASP, link_frames_into
 
 PART_SIZE = 6
 """Spheres in a part: a group's (a link's) consecutive spheres are tested in parts of this
@@ -267,13 +267,8 @@ def _mark_step(
 @numba.njit(cache=True)
 def candidate_steps(
     stands: np.ndarray,
-    confs: np.ndarray,
-    mount_forward: float,
-    base_inertial_z: float,
-    revolute: np.ndarray,
-    hand: np.ndarray,
-    fingers: np.ndarray,
-    grasp: np.ndarray,
+    step_frames: np.ndarray,
+    grasp: int,
     sphere_link: np.ndarray,
     sphere_centre: np.ndarray,
     sphere_radius: np.ndarray,
@@ -285,20 +280,18 @@ def candidate_steps(
     boxes: np.ndarray,
     cylinders: np.ndarray,
     bodies: int,
-    reach: np.ndarray,
 ) -> np.ndarray:
-    """For each step ``k`` (the base at ``stands[k]`` = x, y, yaw; the lift and arm at
-    ``confs[k]`` = lift, 7 joints): which of ``bodies`` body columns the robot may touch.
-    The arm's mount and the grasp target at each step go into ``reach`` (steps x 4: mount x,
-    y, grasp target x, y), the lines :class:`~stalm.motion.sweeps.SweptMotion` keeps. Spheres
-    are grouped by link (``sphere_groups``: first and end index of each link's spheres).
+    """For each step ``k`` (the base at ``stands[k]`` = x, y, yaw; the arm's frames at
+    ``step_frames[k]``, frame ``grasp`` the grasp frame): which of ``bodies`` body columns the
+    robot may touch. Spheres are grouped by frame (``sphere_groups``: first and end index of
+    each frame's spheres; ``sphere_link`` names each sphere's frame).
 
-    ``held_boxes`` are in the grasp target's frame, ``base_boxes`` in the base's frame
+    ``held_boxes`` are in the grasp frame, ``base_boxes`` in the base's frame
     (either may be empty); ``held_box_group[m]`` names the sphere group that must also touch
     for held box ``m`` to mark a body (-1: the box alone), and the groups from
-    ``arm_groups`` on are such held spheres (linked to the grasp target frame). A body column
+    ``arm_groups`` on are such held spheres (linked to the grasp frame). A body column
     below 0 is never marked (a body to ignore)."""
-    steps = confs.shape[0]
+    steps = step_frames.shape[0]
     out = np.zeros((steps, bodies), dtype=np.bool_)
     box_low = np.empty((boxes.shape[0], 3))
     box_high = np.empty((boxes.shape[0], 3))
@@ -324,13 +317,12 @@ def candidate_steps(
             parts[q, 1] = min(first + PART_SIZE, sphere_groups[g, 1])
             _bounding_sphere(parts[q, 0], parts[q, 1], sphere_centre, sphere_radius, part_bounds[q])
             first = parts[q, 1]
-    frames = np.empty((12, 4, 4))
+    frames = np.empty((step_frames.shape[1], 4, 4))
     group_world = np.empty((count, 4))
     placed = np.zeros(total, dtype=np.int64)
     centres = np.empty((sphere_link.shape[0], 3))
     state = (frames, group_world, placed, centres, np.empty(3), np.empty((total, 4)))
     model = (sphere_link, sphere_centre, sphere_radius, parts, group_parts, part_bounds)
-    base = np.eye(4)
     stand_frame = np.eye(4)
     moving = np.empty((held_boxes.shape[0] + base_boxes.shape[0], 16))
     box_group = np.full(moving.shape[0], -1, dtype=np.int64)
@@ -348,15 +340,7 @@ def candidate_steps(
     for k in range(steps):
         x, y, yaw = stands[k, 0], stands[k, 1], stands[k, 2]
         c, s = math.cos(yaw), math.sin(yaw)
-        base[0, 0], base[0, 1], base[1, 0], base[1, 1] = c, -s, s, c
-        base[0, 3] = x + mount_forward * c
-        base[1, 3] = y + mount_forward * s
-        base[2, 3] = confs[k, 0] - base_inertial_z
-        link_frames_into(base, confs[k, 1:], revolute, hand, fingers, grasp, frames)
-        reach[k, 0] = base[0, 3]
-        reach[k, 1] = base[1, 3]
-        reach[k, 2] = frames[GRASP, 0, 3]
-        reach[k, 3] = frames[GRASP, 1, 3]
+        frames[:] = step_frames[k]
         for g in range(count):
             link = sphere_link[sphere_groups[g, 0]]
             for r in range(3):
@@ -369,7 +353,7 @@ def candidate_steps(
             group_world[g, 3] = bounds[g, 3]
         placed[:] = 0
         for m in range(held_boxes.shape[0]):
-            place_box(frames[GRASP], held_boxes[m], moving[m])
+            place_box(frames[grasp], held_boxes[m], moving[m])
         stand_frame[0, 0], stand_frame[0, 1], stand_frame[1, 0], stand_frame[1, 1] = c, -s, s, c
         stand_frame[0, 3], stand_frame[1, 3] = x, y
         for m in range(base_boxes.shape[0]):

@@ -4,7 +4,7 @@ Damped least squares is local, so each attempt starts from an arm configuration 
 one, or a random one drawn from the passed generator) and is accepted only if forward
 kinematics puts the grasp point within :data:`POSITION_TOLERANCE` and the orientation within
 :data:`ANGLE_TOLERANCE` of the target; the joints stay inside their limits. The solver is
-:func:`stalm.motion.panda.solve_pose` (the URDF's chain, compiled): IK moves no PyBullet body,
+:mod:`stalm.motion.arm_model`'s (the URDF's chain, compiled): IK moves no PyBullet body,
 so the simulator is left as it was. PyBullet's own ``calculateInverseKinematics`` did the same
 steps at about a millisecond per attempt (calls, joint resets and a forward-kinematics check);
 it is kept as the reference of ``stalm bench ik`` (:mod:`stalm.motion.ik_reference`).
@@ -18,17 +18,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from stalm.geometry.transforms import Pose3, matrix_from_quat
-from stalm.motion import panda
-from stalm.world import robot as robot_model
+from stalm.motion.arm_model import ArmModel, arm_of
 from stalm.world.scene import Sim
 
 POSITION_TOLERANCE = 0.005
 ANGLE_TOLERANCE = 0.03
-SHOULDER_ABOVE_MOUNT = 0.333
 ITERATIONS = 150
 """Damped-least-squares steps per attempt (most converge in under 30)."""
-NOMINAL_ARM = (0.0, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785)
-"""First seed: the arm reaching forward at mid height, where most grasps lie."""
 
 
 @dataclass(frozen=True)
@@ -37,10 +33,10 @@ class IKSolution:
     arm: tuple[float, ...]
 
 
-def lift_candidates(target_z: float) -> tuple[float, ...]:
+def lift_candidates(sim: Sim, target_z: float) -> tuple[float, ...]:
     """Lift heights to try for a target height: shoulder near the target first."""
-    low, high = robot_model.LIFT_RANGE
-    preferred = target_z - SHOULDER_ABOVE_MOUNT + 0.05
+    low, high = sim.robot.mobile_mount.lift_range
+    preferred = target_z - arm_of(sim).shoulder_above_mount + 0.05
     values = []
     for offset in (0.0, 0.15, -0.15, 0.3):
         value = round(min(high, max(low, preferred + offset)), 3)
@@ -58,12 +54,18 @@ def target_matrix(target: Pose3) -> np.ndarray:
 
 
 def refine(
-    base: tuple[float, float, float], target: Pose3, lift: float, seed: tuple[float, ...]
+    sim: Sim,
+    base: tuple[float, float, float],
+    target: Pose3,
+    lift: float,
+    seed: tuple[float, ...],
+    arm: ArmModel | None = None,
 ) -> IKSolution | None:
     """Damped least squares from ``seed`` at ``lift``; the solution if it reaches ``target``
     within the tolerances."""
-    frame = panda.base_frame(robot_model.arm_mount(base, lift))
-    q, position, angle = panda.solve_pose(frame, target_matrix(target), seed, ITERATIONS)
+    arm = arm_of(sim) if arm is None else arm
+    frame = arm.base_frame(sim.arm_mount(base, lift))
+    q, position, angle = arm.solve_pose(frame, target_matrix(target), seed, ITERATIONS)
     if position <= POSITION_TOLERANCE and angle <= ANGLE_TOLERANCE:
         return IKSolution(lift, q)
     return None
@@ -73,7 +75,7 @@ def solve_ik_from(
     sim: Sim, base: tuple[float, float, float], target: Pose3, start: IKSolution
 ) -> IKSolution | None:
     """IK seeded at a known nearby solution and its lift (for approach and lift-off poses)."""
-    return refine(base, target, start.lift, start.arm)
+    return refine(sim, base, target, start.lift, start.arm)
 
 
 def solve_ik(
@@ -100,18 +102,19 @@ def solutions_by_lift(
     attempts each, the first from :data:`NOMINAL_ARM` and the second from a random
     configuration drawn from ``rng``. A caller whose motion at one lift collides asks for the
     next (an object carried low can be dragged through its table as the arm folds)."""
-    lows = [lo for lo, _ in robot_model.ARM_JOINT_LIMITS]
-    highs = [hi for _, hi in robot_model.ARM_JOINT_LIMITS]
-    candidates = lift_candidates(target[0][2])
+    arm = arm_of(sim)
+    lows = [lo for lo, _ in sim.robot.joint_limits]
+    highs = [hi for _, hi in sim.robot.joint_limits]
+    candidates = lift_candidates(sim, target[0][2])
     attempt = 0
     while attempt < attempts:
         lift = candidates[(attempt // 2) % len(candidates)]
         seed: tuple[float, ...]
         if attempt % 2 == 0:
-            seed = NOMINAL_ARM
+            seed = arm.nominal_arm
         else:
             seed = tuple(float(v) for v in rng.uniform(lows, highs))
-        solution = refine(base, target, lift, seed)
+        solution = refine(sim, base, target, lift, seed, arm)
         attempt += 1
         if solution is not None:
             yield solution

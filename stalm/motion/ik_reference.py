@@ -19,8 +19,7 @@ from stalm.geometry.transforms import (
 )
 from stalm.motion.ik import ANGLE_TOLERANCE, POSITION_TOLERANCE, IKSolution
 from stalm.motion.urdf_chain import UrdfChain
-from stalm.world import robot as robot_model
-from stalm.world.scene import ARM_JOINTS, GRASP_LINK, Sim
+from stalm.world.scene import Sim
 
 REFINEMENTS = 3
 """IK calls per attempt, each starting where the previous ended (PyBullet's IK is one
@@ -31,8 +30,9 @@ def pybullet_refine(
     sim: Sim, base: tuple[float, float, float], target: Pose3, lift: float, seed: tuple[float, ...]
 ) -> IKSolution | None:
     """Up to :data:`REFINEMENTS` IK calls from ``seed``; the solution if FK confirms it."""
-    lows = [lo for lo, _ in robot_model.ARM_JOINT_LIMITS]
-    highs = [hi for _, hi in robot_model.ARM_JOINT_LIMITS]
+    lows = [lo for lo, _ in sim.robot.joint_limits]
+    highs = [hi for _, hi in sim.robot.joint_limits]
+    joints = sim.bodies.joints
     target_rot = matrix_from_quat(target[1])
     held, held_offset = sim.held, sim.held_yaw_offset
     sim.attach(None)
@@ -44,7 +44,7 @@ def pybullet_refine(
             # and twice as fast; joint limits are enforced by the check below
             solution = p.calculateInverseKinematics(
                 sim.bodies.arm,
-                GRASP_LINK,
+                joints.grasp_link,
                 list(target[0]),
                 list(target[1]),
                 maxNumIterations=60,
@@ -53,7 +53,7 @@ def pybullet_refine(
             )
             q = tuple(
                 min(hi, max(lo, float(v)))
-                for v, lo, hi in zip(solution[: len(ARM_JOINTS)], lows, highs, strict=True)
+                for v, lo, hi in zip(solution[: len(joints.arm)], lows, highs, strict=True)
             )
             sim.set_arm(base, lift, q)
             pos, orn = sim.gripper_pose()

@@ -170,8 +170,8 @@ class Manipulator:
         return ArmMotion(
             stand,
             handle,
-            (*robot_model.unfold(handle), handle),
-            (handle, *robot_model.fold(handle)),
+            (*robot_model.unfold(handle, self.sim.robot.carry_conf), handle),
+            (handle, *robot_model.fold(handle, self.sim.robot.carry_conf)),
         )
 
     def sweep(

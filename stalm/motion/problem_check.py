@@ -24,7 +24,6 @@ from collections import deque
 
 from stalm.errors import StalmError
 from stalm.motion.roadmap import FootprintChecker, Roadmap, RoadmapSettings, load_or_build_roadmap
-from stalm.world import robot as robot_model
 from stalm.world.problem import Problem
 from stalm.world.scene import Sim
 from stalm.world.state import RobotConf
@@ -89,7 +88,8 @@ def problem_geometry_faults(problem: Problem, settings: RoadmapSettings | None =
         for door in spec.doors:  # as the problem starts (the robot stays where it was)
             sim.set_door(door.name, problem.initial_state.is_open(door.name))
         for where, pose in _standing_poses(problem):
-            sim.set_robot(RobotConf.make(pose, robot_model.CARRY_LIFT, robot_model.CARRY_ARM))
+            carry = sim.robot.carry_conf
+            sim.set_robot(RobotConf.make(pose, carry[0], carry[1:]))
             hits = sim.robot_contacts()
             if hits:
                 faults.append(f"{where}: the robot standing there is inside {_names(sim, hits)}")

@@ -47,7 +47,11 @@ def reach_waypoints(
 ) -> list[Conf]:
     """Folded arm at the target's lift height, the offset pose, then the target."""
     goal = solution_conf(solution)
-    return [*unfold(goal), offset_conf(sim, base, target, solution, backoff, raise_by), goal]
+    return [
+        *unfold(goal, sim.robot.carry_conf),
+        offset_conf(sim, base, target, solution, backoff, raise_by),
+        goal,
+    ]
 
 
 def leave_waypoints(
@@ -60,4 +64,8 @@ def leave_waypoints(
 ) -> list[Conf]:
     """The target, the offset pose, then the arm folded back to the driving configuration."""
     start = solution_conf(solution)
-    return [start, offset_conf(sim, base, target, solution, backoff, raise_by), *fold(start)]
+    return [
+        start,
+        offset_conf(sim, base, target, solution, backoff, raise_by),
+        *fold(start, sim.robot.carry_conf),
+    ]

@@ -18,10 +18,8 @@ import numpy as np
 import pybullet as p
 
 from stalm.geometry.transforms import quat_yaw
-from stalm.motion import panda
-from stalm.motion.panda_spheres import panda_spheres
+from stalm.motion.arm_model import arm_of
 from stalm.motion.sphere_fit import CONTACT_MARGIN
-from stalm.world import robot as robot_model
 from stalm.world.mesh_pieces import object_pieces
 from stalm.world.object_spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
 from stalm.world.scene import Sim
@@ -134,13 +132,16 @@ class ScenePrimitives:
             static.append(box_row(centre, half, yaw_rotation(region.yaw), column))
         self._static = np.array(static).reshape(-1, 16)
         self._objects = {obj.name: obj for obj in spec.objects}
-        self.spheres = panda_spheres()
+        arm = arm_of(sim)
+        self.spheres = arm.spheres
         self.groups = self.spheres.groups
+        self.grasp_frame = arm.grasp_frame
+        mount = sim.robot.mobile_mount
         self.base_box = np.array(
             [
                 box_row(
-                    (0.0, 0.0, robot_model.BASE_HEIGHT / 2),
-                    (robot_model.BASE_RADIUS, robot_model.BASE_RADIUS, robot_model.BASE_HEIGHT / 2),
+                    (0.0, 0.0, mount.base_height / 2),
+                    (mount.base_radius, mount.base_radius, mount.base_height / 2),
                     np.eye(3),
                     0,
                 )
@@ -221,7 +222,7 @@ class ScenePrimitives:
         local_centres = np.asarray(held.position) + centres @ grasp_rotation.T
         start = len(spheres.link)
         return (
-            np.concatenate([spheres.link, np.full(len(local_centres), panda.GRASP)]),
+            np.concatenate([spheres.link, np.full(len(local_centres), self.grasp_frame)]),
             np.concatenate([spheres.centre, local_centres]),
             np.concatenate([spheres.radius, np.full(len(local_centres), radius)]),
             np.concatenate([groups, [[start, start + len(local_centres)]]]).astype(np.int64),

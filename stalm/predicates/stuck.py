@@ -17,7 +17,6 @@ from collections.abc import Callable, Collection, Mapping
 from stalm.motion.base_motion import BasePlanner
 from stalm.motion.manipulation import PARKED
 from stalm.predicates.samples import MotionSamples, PredicateSettings
-from stalm.world import robot as robot_model
 from stalm.world.grip_widths import too_wide
 from stalm.world.problem import Problem
 from stalm.world.relations import at_position
@@ -46,7 +45,7 @@ def stuck_objects(
         if progress is not None:
             progress(done, len(poses))
         sim.set_state(state)
-        wide = too_wide(problem.spec.object(name), robot_model.GRIPPER_GAP)
+        wide = too_wide(problem.spec.object(name), sim.robot.gripper.opening)
         if wide is not None:
             stuck[name] = wide
             continue

@@ -57,7 +57,7 @@ def replay_plan(problem: Problem, start: State, actions: list[Action]) -> Replay
         states = [state]
         for index, action in enumerate(actions):
             why = domain.precondition_failure(state, action.discrete)
-            why = why or out_of_bounds(spec, action)
+            why = why or out_of_bounds(spec, problem.robot, action)
             if why is None:
                 failure = check_consistency(
                     domain.sim, spec, state, action, domain.samplers.handle_target
@@ -119,10 +119,10 @@ def read_plan(problem: Problem, plan: object) -> list[Action]:
     actions = []
     for index, item in enumerate(plan):
         try:
-            action = action_from_json(item)
+            action = action_from_json(item, 1 + len(problem.robot.arm_joints))
         except StalmError as error:
             raise StalmError(f"step {index + 1} of the plan: {error}") from None
-        why = out_of_bounds(problem.spec, action)
+        why = out_of_bounds(problem.spec, problem.robot, action)
         if why is not None:
             raise StalmError(f"step {index + 1} of the plan: {why}")
         actions.append(action)

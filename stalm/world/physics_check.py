@@ -38,8 +38,8 @@ from stalm.world import robot as robot_model
 from stalm.world.mesh_pieces import object_pieces, pieces_volume_centroid
 from stalm.world.object_spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
 from stalm.world.problem import Problem
-from stalm.world.scene import ARM_JOINTS, GRASP_LINK
-from stalm.world.scene_build import FINGER_JOINTS, build_bodies, object_shapes
+from stalm.world.robot_loader import robot_named
+from stalm.world.scene_build import build_bodies, object_shapes
 from stalm.world.state import ObjectPose, State
 
 GRAVITY = -9.81
@@ -258,7 +258,8 @@ class _PhysicsWorld:
         spec = problem.spec
         self.client = c = p.connect(p.DIRECT)
         try:
-            bodies = build_bodies(c, spec)
+            robot = robot_named(spec.robot.robot)
+            bodies = build_bodies(c, spec, robot)
             for fixed in (bodies.base, *bodies.doors.values()):
                 p.changeDynamics(fixed, -1, mass=0.0, physicsClientId=c)
             self.objects: dict[str, int] = {}
@@ -282,6 +283,7 @@ class _PhysicsWorld:
             raise
         self.spec = spec
         self.bodies = bodies
+        self.mount_forward = robot.mobile_mount.arm_mount_forward
         self.arm_links = range(-1, p.getNumJoints(bodies.arm, physicsClientId=c))
         self.pin: int | None = None
         self.pinned: str | None = None
@@ -295,14 +297,15 @@ class _PhysicsWorld:
         p.resetBasePositionAndOrientation(
             self.bodies.base, [base[0], base[1], 0.0], yaw_quat(base[2]), physicsClientId=c
         )
-        mount = robot_model.arm_mount(base, state.robot.lift)
+        mount = robot_model.arm_mount(base, state.robot.lift, self.mount_forward)
         p.resetBasePositionAndOrientation(
             self.bodies.arm, [mount.x, mount.y, mount.z], yaw_quat(mount.yaw), physicsClientId=c
         )
-        for joint, value in zip(ARM_JOINTS, state.robot.arm, strict=True):
+        joints = self.bodies.joints
+        for joint, value in zip(joints.arm, state.robot.arm, strict=True):
             p.resetJointState(self.bodies.arm, joint, value, physicsClientId=c)
-        for joint in FINGER_JOINTS:
-            p.resetJointState(self.bodies.arm, joint, robot_model.FINGER_OPENING, physicsClientId=c)
+        for joint, value in joints.fingers:
+            p.resetJointState(self.bodies.arm, joint, value, physicsClientId=c)
         for door in self.spec.doors:
             yaw = door.open_yaw if state.is_open(door.name) else door.closed_yaw
             p.resetBasePositionAndOrientation(
@@ -321,11 +324,9 @@ class _PhysicsWorld:
     def _pin(self, state: State) -> None:
         assert state.held is not None
         c, name = self.client, state.held.obj
-        hand = p.getLinkState(
-            self.bodies.arm, GRASP_LINK, computeForwardKinematics=True, physicsClientId=c
-        )
+        hand = self.bodies.joints.grasp_pose(c, self.bodies.arm)
         position, orientation = p.multiplyTransforms(
-            hand[4], hand[5], state.held.position, state.held.orientation, physicsClientId=c
+            *hand, state.held.position, state.held.orientation, physicsClientId=c
         )
         com = self._put(name, position, orientation)
         for link in self.arm_links:

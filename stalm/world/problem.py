@@ -19,8 +19,9 @@ from pathlib import Path
 from stalm.errors import StalmError
 from stalm.geometry.directions import Direction
 from stalm.geometry.transforms import se2_to_world, wrap_angle
-from stalm.world import robot as robot_model
-from stalm.world.problem_file import load_problem_file
+from stalm.world.problem_file import load_problem_file, parse_problem
+from stalm.world.robot_description import Robot
+from stalm.world.robot_loader import builtin_robots, robot_named
 from stalm.world.spec import ProblemSpec
 from stalm.world.state import ObjectPose, RobotConf, State
 
@@ -68,6 +69,9 @@ class Problem:
         unknown = sorted(set(state.open_doors) - doors)
         if unknown:
             return f"unknown doors {unknown}"
+        joints = len(self.robot.arm_joints)
+        if len(state.robot.arm) != joints:
+            return f"robot.arm has {len(state.robot.arm)} joints; {self.robot.name}'s has {joints}"
         return None
 
     @cached_property
@@ -90,13 +94,32 @@ class Problem:
             poses.append(
                 (obj.name, ObjectPose.make(x, y, region.top, wrap_angle(region.yaw + obj.yaw)))
             )
+        carry = self.robot.carry_conf
         return State(
             poses=tuple(sorted(poses)),
             open_doors=frozenset(),
-            robot=RobotConf.make(
-                self.spec.robot.base, robot_model.CARRY_LIFT, robot_model.CARRY_ARM
-            ),
+            robot=RobotConf.make(self.spec.robot.base, carry[0], carry[1:]),
         )
+
+    @cached_property
+    def robot(self) -> Robot:
+        """The robot the problem names (the Panda unless its ``robot.file`` says another)."""
+        return robot_named(self.spec.robot.robot)
+
+    def with_robot(self, robot: str) -> Problem:
+        """This problem for another robot (``--robot``): a built-in robot's name, or a robot
+        file's path (relative to the working folder), which the problem then names by its
+        absolute path. A StalmError if the robot cannot be loaded, has no gripper, or is not
+        on a mobile base."""
+        path = Path(robot).expanduser()
+        named = robot in builtin_robots() or (path.suffix == "" and len(path.parts) == 1)
+        file = robot if named else str(path.resolve())  # a bare word: a (maybe unknown) name
+        data = self.spec.model_dump(mode="json")
+        data["robot"]["file"] = file
+        problem = Problem(parse_problem(data, f"{self.source} with --robot {robot}"), self.source)
+        loaded = problem.robot
+        _ = loaded.mobile_mount, loaded.gripper  # what planning needs: errors now, not later
+        return problem
 
 
 PROBLEMS_ENV = "STALM_PROBLEMS_DIR"

@@ -58,25 +58,28 @@ class ArmMount:
     yaw: float
 
 
-def arm_mount(base: tuple[float, float, float], lift: float) -> ArmMount:
-    """The arm base frame for a base pose (x, y, yaw) and a lift height."""
+def arm_mount(
+    base: tuple[float, float, float], lift: float, forward: float = ARM_MOUNT_FORWARD
+) -> ArmMount:
+    """The arm base frame for a base pose (x, y, yaw) and a lift height, the mount ``forward``
+    of the base centre (a robot file's ``arm_mount_forward``; the Panda's by default)."""
     x, y, yaw = base
-    return ArmMount(
-        x + ARM_MOUNT_FORWARD * math.cos(yaw), y + ARM_MOUNT_FORWARD * math.sin(yaw), lift, yaw
-    )
+    return ArmMount(x + forward * math.cos(yaw), y + forward * math.sin(yaw), lift, yaw)
 
 
 CARRY_CONF = (CARRY_LIFT, *CARRY_ARM)
 """Lift and arm joints while driving."""
 
 
-def unfold(conf: tuple[float, ...]) -> list[tuple[float, ...]]:
-    """Waypoints from the driving configuration up (or down) to ``conf``'s lift height with
-    the arm still folded: the lift moves first, so the arm never sweeps forward under a shelf
-    on its way up."""
-    return [CARRY_CONF, (conf[0], *CARRY_ARM)]
+def unfold(
+    conf: tuple[float, ...], carry: tuple[float, ...] = CARRY_CONF
+) -> list[tuple[float, ...]]:
+    """Waypoints from the driving configuration ``carry`` (lift, arm) up (or down) to
+    ``conf``'s lift height with the arm still folded: the lift moves first, so the arm never
+    sweeps forward under a shelf on its way up."""
+    return [carry, (conf[0], *carry[1:])]
 
 
-def fold(conf: tuple[float, ...]) -> list[tuple[float, ...]]:
+def fold(conf: tuple[float, ...], carry: tuple[float, ...] = CARRY_CONF) -> list[tuple[float, ...]]:
     """Waypoints back from ``conf``'s lift height to the driving configuration, arm first."""
-    return [(conf[0], *CARRY_ARM), CARRY_CONF]
+    return [(conf[0], *carry[1:]), carry]

@@ -111,6 +111,12 @@ class RobotSpec(_Spec):
     gripper: GripperSpec | None = None
     mount: Annotated[MobileMount | FixedMount, Field(discriminator="kind")]
     carry: tuple[Angle, ...] = Field(min_length=1, max_length=16)
+    ready: tuple[Angle, ...] | None = Field(
+        default=None,
+        min_length=1,
+        max_length=16,
+        description="IK's first seed: the arm reaching forward at mid height (default: carry)",
+    )
     joint_limits: tuple[tuple[Angle, Angle], ...] | None = None
     velocity_limits: tuple[Rate, ...] | None = None
     acceleration_limits: tuple[Rate, ...] = Field(min_length=1, max_length=16)
@@ -170,6 +176,30 @@ class Robot:
     @property
     def acceleration_limits(self) -> tuple[float, ...]:
         return self.spec.acceleration_limits
+
+    @property
+    def mobile_mount(self) -> MobileMount:
+        """The holonomic base and lift the arm rides on; a StalmError for a fixed arm, which
+        the planner cannot drive to its goals yet."""
+        mount = self.spec.mount
+        if not isinstance(mount, MobileMount):
+            raise StalmError(
+                f"{self.source}: robot {self.name!r} is fixed at a pose (mount kind 'fixed'); "
+                "stalm plans for a robot on a mobile base (mount kind 'mobile')"
+            )
+        return mount
+
+    @property
+    def carry_conf(self) -> tuple[float, ...]:
+        """The lift height and arm joints while driving."""
+        return (self.mobile_mount.carry_lift, *self.spec.carry)
+
+    @property
+    def gripper(self) -> GripperSpec:
+        """The gripper; a StalmError for an arm without one, which cannot pick."""
+        if self.spec.gripper is None:
+            raise StalmError(f"{self.source}: robot {self.name!r} has no gripper: it cannot pick")
+        return self.spec.gripper
 
 
 def resolve_urdf(urdf: str, robot_dir: Path) -> Path:

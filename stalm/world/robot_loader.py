@@ -6,6 +6,7 @@ valid robot file is, and from the URDF's side (:mod:`stalm.world.robot_urdf`).
 
 from __future__ import annotations
 
+from functools import cache
 from pathlib import Path
 
 from stalm.errors import StalmError
@@ -37,3 +38,10 @@ def load_robot(name_or_path: str) -> Robot:
     path = robot_file(name_or_path)
     spec = read_robot_spec(path)
     return check_against_urdf(spec, str(path), resolve_urdf(spec.urdf, path.parent))
+
+
+@cache
+def robot_named(name_or_path: str) -> Robot:
+    """:func:`load_robot`, once per process for each name or path: every scene of a run
+    builds its robot from it, and loading reads the URDF in PyBullet."""
+    return load_robot(name_or_path)

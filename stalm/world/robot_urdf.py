@@ -172,13 +172,16 @@ def _velocities(spec: RobotSpec, moving: Sequence[ChainJoint]) -> tuple[float, .
 def _check_carry(
     spec: RobotSpec, moving: Sequence[ChainJoint], limits: Sequence[tuple[float, float]]
 ) -> None:
-    for index, (value, joint, (low, high)) in enumerate(
-        zip(spec.carry, moving, limits, strict=True)
-    ):
-        if not low <= value <= high:
-            raise StalmError(
-                f"carry[{index}]: {value} is outside joint {joint.name!r}'s limits [{low}, {high}]"
-            )
+    for field, conf in (("carry", spec.carry), ("ready", spec.ready)):
+        if conf is None:
+            continue
+        _sized(field, conf, len(moving))
+        for index, (value, joint, (low, high)) in enumerate(zip(conf, moving, limits, strict=True)):
+            if not low <= value <= high:
+                raise StalmError(
+                    f"{field}[{index}]: {value} is outside joint {joint.name!r}'s limits "
+                    f"[{low}, {high}]"
+                )
 
 
 def finger_gap(loaded: UrdfBody, spec: RobotSpec) -> float:

@@ -26,6 +26,7 @@ import pybullet as p
 
 from stalm.geometry.transforms import Pose3, quat_yaw, yaw_quat
 from stalm.world import robot as robot_model
+from stalm.world.robot_loader import robot_named
 from stalm.world.scene_build import build_bodies
 from stalm.world.spec import ProblemSpec
 from stalm.world.state import Grasp, ObjectPose, RobotConf, State
@@ -38,11 +39,6 @@ REST_GROUP = 1
 PENETRATION_TOLERANCE = 1e-3
 """Contacts shallower than this (m) are touching, not colliding: objects resting on a surface
 or standing side by side are legal."""
-
-GRASP_LINK = 11
-"""The Panda's ``panda_grasptarget`` link: the point between the fingertips."""
-ARM_JOINTS = tuple(range(7))
-ARM_JOINT_LIST = list(ARM_JOINTS)
 
 
 def _penetrates(body: int, other: int, client: int) -> bool:
@@ -63,9 +59,11 @@ class Sim:
         """The scene of ``problem``; ``stop`` (see :func:`build_bodies`) may cut building short
         with :exc:`~stalm.world.scene_build.SceneAbandoned`, the client then closed."""
         self.problem = problem
+        self.robot = robot_named(problem.robot.robot)
+        """The robot the problem names, as its robot file describes it."""
         self.client = p.connect(p.DIRECT)
         try:
-            self.bodies = build_bodies(self.client, problem, stop)
+            self.bodies = build_bodies(self.client, problem, self.robot, stop)
         except BaseException:
             p.disconnect(self.client)
             raise
@@ -74,7 +72,10 @@ class Sim:
         self._held_yaw_offset = 0.0
         self._gripper: Pose3 | None = None
         """The grasp point's world pose in the arm's current configuration, once asked for."""
-        self._robot = RobotConf.make((0.0, 0.0, 0.0), robot_model.CARRY_LIFT, robot_model.CARRY_ARM)
+        carry = self.robot.carry_conf
+        self._robot = RobotConf.make((0.0, 0.0, 0.0), carry[0], carry[1:])
+        self._mount_forward = self.robot.mobile_mount.arm_mount_forward
+        self._arm_joints = list(self.bodies.joints.arm)
         self._static_ids = frozenset(self.bodies.walls.values()) | frozenset(
             self.bodies.regions.values()
         )
@@ -157,8 +158,12 @@ class Sim:
         self.set_arm(conf.base, conf.lift, conf.arm)
         self._robot = conf
 
+    def arm_mount(self, base: tuple[float, float, float], lift: float) -> robot_model.ArmMount:
+        """Where the arm's base sits for a base pose and a lift height."""
+        return robot_model.arm_mount(base, lift, self._mount_forward)
+
     def set_arm(self, base: tuple[float, float, float], lift: float, arm: Sequence[float]) -> None:
-        self.set_arm_at(robot_model.arm_mount(base, lift), arm)
+        self.set_arm_at(self.arm_mount(base, lift), arm)
 
     def set_arm_at(self, mount: robot_model.ArmMount, arm: Sequence[float]) -> None:
         """:meth:`set_arm` with the arm's mount already computed (a sweep needs it anyway)."""
@@ -166,9 +171,9 @@ class Sim:
         p.resetBasePositionAndOrientation(
             self.bodies.arm, [mount.x, mount.y, mount.z], yaw_quat(mount.yaw), physicsClientId=c
         )
-        # one call for all seven joints: five times faster than seven resetJointState calls
+        # one call for all the joints: five times faster than a resetJointState call each
         p.resetJointStatesMultiDof(
-            self.bodies.arm, ARM_JOINT_LIST, [[value] for value in arm], physicsClientId=c
+            self.bodies.arm, self._arm_joints, [[value] for value in arm], physicsClientId=c
         )
         self._gripper = None
         if self._held is not None:
@@ -181,7 +186,7 @@ class Sim:
         p.resetBasePositionAndOrientation(
             self.bodies.base, [x, y, 0.0], yaw_quat(yaw), physicsClientId=c
         )
-        mount = robot_model.arm_mount(base, self._robot.lift)
+        mount = self.arm_mount(base, self._robot.lift)
         p.resetBasePositionAndOrientation(
             self.bodies.arm, [mount.x, mount.y, mount.z], yaw_quat(mount.yaw), physicsClientId=c
         )
@@ -193,12 +198,12 @@ class Sim:
         c = self.client
         pos, orn = p.getBasePositionAndOrientation(self.bodies.base, physicsClientId=c)
         mount_pos, _ = p.getBasePositionAndOrientation(self.bodies.arm, physicsClientId=c)
-        arm = [p.getJointState(self.bodies.arm, j, physicsClientId=c)[0] for j in ARM_JOINTS]
+        arm = [p.getJointState(self.bodies.arm, j, physicsClientId=c)[0] for j in self._arm_joints]
         return RobotConf.make((pos[0], pos[1], quat_yaw(orn)), mount_pos[2], arm)
 
     def arm_conf(self) -> tuple[float, ...]:
-        """The lift and the seven arm joints as the simulator has them now."""
-        states = p.getJointStates(self.bodies.arm, ARM_JOINT_LIST, physicsClientId=self.client)
+        """The lift and the arm joints as the simulator has them now."""
+        states = p.getJointStates(self.bodies.arm, self._arm_joints, physicsClientId=self.client)
         return (self._robot.lift, *(state[0] for state in states))
 
     def gripper_pose(self) -> Pose3:
@@ -206,14 +211,7 @@ class Sim:
         configuration: a sweep asks for it to carry the held object and again for its
         reach lines)."""
         if self._gripper is None:
-            state = p.getLinkState(
-                self.bodies.arm,
-                GRASP_LINK,
-                computeForwardKinematics=True,
-                physicsClientId=self.client,
-            )
-            pos, orn = state[4], state[5]
-            self._gripper = (pos[0], pos[1], pos[2]), (orn[0], orn[1], orn[2], orn[3])
+            self._gripper = self.bodies.joints.grasp_pose(self.client, self.bodies.arm)
         return self._gripper
 
     def _place_held(self) -> None:

@@ -1,5 +1,5 @@
 """Building one problem's bodies in a PyBullet client: floor, walls, regions, doors, objects and
-the robot (base cylinder and Panda arm).
+the robot (base cylinder and the arm its robot file names, the Panda by default).
 
 Kept apart from :mod:`stalm.world.scene`, whose :class:`~stalm.world.scene.Sim` sets and
 queries the world, because building runs once per simulator and is all shapes and colours,
@@ -16,13 +16,57 @@ from dataclasses import dataclass, field
 import pybullet as p
 import pybullet_data
 
-from stalm.geometry.transforms import yaw_quat
-from stalm.world import robot as robot_model
+from stalm.geometry.transforms import Pose3, yaw_quat
 from stalm.world.mesh_pieces import object_pieces
 from stalm.world.object_spec import GRILL_HANDLE_HALF_HEIGHT, GRILL_HANDLE_REACH, ObjectSpec
+from stalm.world.robot_description import Robot
 from stalm.world.spec import DoorSpec, ProblemSpec, RegionSpec
 
-FINGER_JOINTS = (9, 10)
+
+@dataclass(frozen=True)
+class ArmJoints:
+    """Where a loaded arm's parts are in its PyBullet body: the joints a configuration
+    lists, the finger joints with the positions they are held open at, the link a grasp is
+    expressed in, and the grasp frame's offset from that link (None: the link itself, as the
+    Panda's ``panda_grasptarget``)."""
+
+    arm: tuple[int, ...]
+    fingers: tuple[tuple[int, float], ...]
+    grasp_link: int
+    tool_offset: Pose3 | None
+
+    def grasp_pose(self, client: int, body: int) -> Pose3:
+        """The grasp frame's world pose in ``body`` (the arm) as it stands now."""
+        state = p.getLinkState(
+            body, self.grasp_link, computeForwardKinematics=True, physicsClientId=client
+        )
+        pos, orn = state[4], state[5]
+        if self.tool_offset is not None:
+            pos, orn = p.multiplyTransforms(pos, orn, *self.tool_offset, physicsClientId=client)
+        return (pos[0], pos[1], pos[2]), (orn[0], orn[1], orn[2], orn[3])
+
+    @classmethod
+    def of(cls, client: int, body: int, robot: Robot) -> ArmJoints:
+        names = {
+            p.getJointInfo(body, j, physicsClientId=client)[1].decode(): j
+            for j in range(p.getNumJoints(body, physicsClientId=client))
+        }
+        gripper = robot.spec.gripper
+        fingers = (
+            ()
+            if gripper is None
+            else tuple((names[name], value) for name, value in gripper.finger_joints.items())
+        )
+        offset = robot.spec.tool_offset
+        tool = None
+        if any(offset.xyz) or any(offset.rpy):
+            tool = (offset.xyz, tuple(p.getQuaternionFromEuler(offset.rpy)))
+        return cls(
+            tuple(joint.index for joint in robot.arm_joints),
+            fingers,
+            robot.chain[-1].index,
+            tool,
+        )
 
 
 class SceneAbandoned(Exception):
@@ -41,6 +85,7 @@ class Bodies:
     base: int = -1
     arm: int = -1
     floor: int = -1
+    joints: ArmJoints = ArmJoints((), (), -1, None)
 
     def name_of(self, body: int) -> str:
         for group in (self.walls, self.regions, self.doors, self.objects):
@@ -53,7 +98,7 @@ class Bodies:
 
 
 def build_bodies(
-    client: int, problem: ProblemSpec, stop: Callable[[], bool] | None = None
+    client: int, problem: ProblemSpec, robot: Robot, stop: Callable[[], bool] | None = None
 ) -> Bodies:
     """Create every body of ``problem`` in ``client``, in a fixed order (the ids follow it).
 
@@ -84,7 +129,7 @@ def build_bodies(
         if stop is not None and stop():
             raise SceneAbandoned(f"gave up building the scene at object {len(bodies.objects)}")
         bodies.objects[obj.name] = _object_body(c, obj)
-    _build_robot(c, bodies)
+    _build_robot(c, bodies, robot)
     return bodies
 
 
@@ -240,32 +285,34 @@ def _mesh_shapes(client: int, obj: ObjectSpec) -> tuple[int, int]:
     return int(col), int(vis)
 
 
-def _build_robot(client: int, bodies: Bodies) -> None:
+def _build_robot(client: int, bodies: Bodies, robot: Robot) -> None:
     c = client
+    mount = robot.mobile_mount
     col = p.createCollisionShape(
         p.GEOM_CYLINDER,
-        radius=robot_model.BASE_RADIUS,
-        height=robot_model.BASE_HEIGHT,
-        collisionFramePosition=[0, 0, robot_model.BASE_HEIGHT / 2],
+        radius=mount.base_radius,
+        height=mount.base_height,
+        collisionFramePosition=[0, 0, mount.base_height / 2],
         physicsClientId=c,
     )
     vis = p.createVisualShapeArray(
         [p.GEOM_CYLINDER, p.GEOM_BOX],
-        radii=[robot_model.BASE_RADIUS, 0.0],
-        lengths=[robot_model.BASE_HEIGHT, 0.0],
+        radii=[mount.base_radius, 0.0],
+        lengths=[mount.base_height, 0.0],
         halfExtents=[[0, 0, 0], [0.06, 0.06, 0.5]],
         visualFramePositions=[
-            [0, 0, robot_model.BASE_HEIGHT / 2],
-            [robot_model.ARM_MOUNT_FORWARD, 0, 0.5],
+            [0, 0, mount.base_height / 2],
+            [mount.arm_mount_forward, 0, 0.5],
         ],
         rgbaColors=[[0.25, 0.25, 0.3, 1], [0.5, 0.5, 0.55, 1]],
         physicsClientId=c,
     )
     bodies.base = int(p.createMultiBody(5.0, col, vis, [0, 0, 0], physicsClientId=c))
     bodies.arm = int(
-        p.loadURDF("franka_panda/panda.urdf", [0, 0, 1], useFixedBase=True, physicsClientId=c)
+        p.loadURDF(str(robot.urdf_path), [0, 0, 1], useFixedBase=True, physicsClientId=c)
     )
+    bodies.joints = ArmJoints.of(c, bodies.arm, robot)
     for link in range(-1, p.getNumJoints(bodies.arm, physicsClientId=c)):
         p.setCollisionFilterPair(bodies.arm, bodies.base, link, -1, 0, physicsClientId=c)
-    for joint in FINGER_JOINTS:
-        p.resetJointState(bodies.arm, joint, robot_model.FINGER_OPENING, physicsClientId=c)
+    for joint, value in bodies.joints.fingers:
+        p.resetJointState(bodies.arm, joint, value, physicsClientId=c)

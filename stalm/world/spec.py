@@ -14,10 +14,15 @@ standing pose side along the region's +x, v to the left), so layouts read like t
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated, Literal
 
 from pydantic import (
     Field,
+    PrivateAttr,
+    SerializerFunctionWrapHandler,
+    ValidationInfo,
+    model_serializer,
     model_validator,
 )
 
@@ -27,6 +32,7 @@ from stalm.geometry.footprints import planar_footprints_overlap, rotated_half_ex
 from stalm.world.goal_consistency import goal_contradiction
 from stalm.world.object_spec import (
     GRILL_HANDLE_REACH,
+    MESH_BASE_CONTEXT,
     ObjectSpec,
 )
 from stalm.world.spec_values import (
@@ -39,6 +45,9 @@ from stalm.world.spec_values import (
     Vec2,
     Vec3,
 )
+
+DEFAULT_ROBOT = "panda"
+"""The robot of a problem that names none."""
 
 
 class WallSpec(SpecModel):
@@ -113,9 +122,42 @@ class DoorSpec(SpecModel):
 
 
 class RobotSpec(SpecModel):
-    """Where the robot starts: base pose (x, y, yaw) on the floor."""
+    """Which robot, and where it starts: base pose (x, y, yaw) on the floor.
+
+    ``file`` names a built-in robot (``stalm robot list``) or a robot file, relative to the
+    problem file; unset, the Panda on its mobile base, as every problem before robot files."""
 
     base: Vec3
+    file: str | None = Field(default=None, min_length=1, max_length=1024)
+    _resolved: str | None = PrivateAttr(default=None)
+
+    @model_validator(mode="after")
+    def _resolve_file(self, info: ValidationInfo) -> RobotSpec:
+        if self.file is not None and Path(self.file).suffix in (".yaml", ".yml"):
+            context = info.context if isinstance(info.context, dict) else {}
+            base = context.get(MESH_BASE_CONTEXT)
+            path = Path(self.file).expanduser()
+            if not path.is_absolute() and base is not None:
+                path = Path(base) / path
+            self._resolved = str(path)
+        return self
+
+    @model_serializer(mode="wrap")
+    def _without_unset_file(self, handler: SerializerFunctionWrapHandler) -> dict[str, object]:
+        """No ``file`` when none is named: the Panda's problems are written and hashed as
+        before robot files existed."""
+        data: dict[str, object] = handler(self)
+        if self.file is None:
+            data.pop("file", None)
+        return data
+
+    @property
+    def robot(self) -> str:
+        """What :func:`~stalm.world.robot_loader.load_robot` takes: a built-in robot's name
+        or a robot file's path (resolved against the problem file's folder)."""
+        if self.file is None:
+            return DEFAULT_ROBOT
+        return self._resolved if self._resolved is not None else self.file
 
 
 class GoalSpec(SpecModel):

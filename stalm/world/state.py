@@ -218,11 +218,18 @@ class State:
             robot=RobotConf.make(
                 _finite(robot_raw.get("base"), 3, "robot.base"),
                 _finite([robot_raw.get("lift")], 1, "robot.lift")[0],
-                _finite(robot_raw.get("arm"), 7, "robot.arm"),
+                _arm(robot_raw.get("arm")),
             ),
             held=held,
             held_yaw_offset=offset,
         )
+
+
+def _arm(value: object) -> tuple[float, ...]:
+    """A stored arm configuration: 6 or 7 joints, as the arms robot files describe (which
+    robot's is for the problem to say)."""
+    length = len(value) if isinstance(value, list | tuple) and len(value) == 6 else 7
+    return _finite(value, length, "robot.arm")
 
 
 def _finite(value: object, length: int, where: str) -> tuple[float, ...]:

@@ -25,6 +25,7 @@ from stalm.geometry.transforms import (
     quat_from_matrix,
     se2_to_world,
 )
+from stalm.motion.arm_model import PANDA_NOMINAL_ARM as NOMINAL_ARM
 from stalm.motion.grasps import (
     APPROACH_DISTANCE,
     PITCH_RANGE,
@@ -32,7 +33,7 @@ from stalm.motion.grasps import (
     YAW_RANGE,
     placement_bounds,
 )
-from stalm.motion.ik import NOMINAL_ARM, refine
+from stalm.motion.ik import refine
 from stalm.motion.manipulation import ArmMotion, placing_hand
 from stalm.motion.reach import leave_waypoints, reach_waypoints, solution_conf
 from stalm.world import robot as robot_model
@@ -185,7 +186,7 @@ def _feasible_lift(
     """A lift height from which PLACE's motion puts the can down without a collision."""
     stand = domain.problem.spec.region(counter).base_pose
     for lift, seed in itertools.product(lifts, seeds):
-        solution = refine(stand, hand, lift, seed)
+        solution = refine(domain.sim, stand, hand, lift, seed)
         if solution is None:
             continue
         motion = ArmMotion(

@@ -22,6 +22,7 @@ from stalm.domain.samplers import SamplerSettings
 from stalm.errors import StalmError
 from stalm.geometry.transforms import quat_from_matrix
 from stalm.motion import ik, panda
+from stalm.motion.arm_model import PANDA_NOMINAL_ARM
 from stalm.motion.colliders import BatchCollider, PyBulletCollider, make_collider
 from stalm.motion.panda_spheres import fit_panda_spheres, panda_spheres
 from stalm.predicates.engine import PredicateEngine
@@ -70,7 +71,7 @@ def test_ik_reaches_what_forward_kinematics_says(problems: dict[str, Problem]) -
         for _ in range(40):
             lift = float(rng.uniform(0.8, 1.0))
             q = np.clip(
-                np.array(ik.NOMINAL_ARM) + rng.normal(0, 0.4, 7),
+                np.array(PANDA_NOMINAL_ARM) + rng.normal(0, 0.4, 7),
                 [lo for lo, _ in robot_model.ARM_JOINT_LIMITS],
                 [hi for _, hi in robot_model.ARM_JOINT_LIMITS],
             )
@@ -78,7 +79,7 @@ def test_ik_reaches_what_forward_kinematics_says(problems: dict[str, Problem]) -
                 panda.GRASP
             ]
             target = (tuple(frame[:3, 3]), quat_from_matrix(frame[:3, :3]))
-            solution = ik.refine(stand, target, lift, ik.NOMINAL_ARM)  # type: ignore[arg-type]
+            solution = ik.refine(sim, stand, target, lift, PANDA_NOMINAL_ARM)  # type: ignore[arg-type]
             if solution is None:
                 continue
             reached += 1

@@ -19,6 +19,7 @@ import numpy as np
 from numba.core.dispatcher import Dispatcher
 
 from stalm.motion import colliders, collision_kernels, collision_primitives, ik, panda
+from stalm.motion.arm_model import PANDA_NOMINAL_ARM
 from stalm.motion.arm_motion import interpolate_waypoints
 from stalm.motion.colliders import BatchCollider
 from stalm.motion.grasps import (
@@ -107,7 +108,7 @@ def test_routes_and_held_objects_agree_with_their_source(problems: dict[str, Pro
         collider = BatchCollider(sim)
         region = problem.spec.regions[0]
         route = np.linspace(problem.spec.robot.base, region.base_pose, 60)
-        arm = np.tile((1.0, *ik.NOMINAL_ARM), (len(route), 1))
+        arm = np.tile((1.0, *PANDA_NOMINAL_ARM), (len(route), 1))
         cases: list[tuple[np.ndarray, np.ndarray, bool]] = []
         motions = _pick_motions(problem, sim, 1)
         for obj in ("coke", "beef_grill"):
@@ -130,14 +131,14 @@ def test_ik_agrees_with_its_source(problems: dict[str, Problem]) -> None:
     targets = []
     for _ in range(6):
         lift = float(rng.uniform(0.8, 1.0))
-        q = np.array(ik.NOMINAL_ARM) + rng.normal(0.0, 0.3, 7)
+        q = np.array(PANDA_NOMINAL_ARM) + rng.normal(0.0, 0.3, 7)
         frame = panda.link_frames(panda.base_frame(robot_model.arm_mount(stand, lift)), q)
         targets.append((lift, frame[panda.GRASP]))
 
     def solve_all() -> list[tuple[tuple[float, ...], float, float]]:
         return [
             panda.solve_pose(
-                panda.base_frame(robot_model.arm_mount(stand, lift)), target, ik.NOMINAL_ARM
+                panda.base_frame(robot_model.arm_mount(stand, lift)), target, PANDA_NOMINAL_ARM
             )
             for lift, target in targets
         ]

@@ -40,8 +40,9 @@ def test_the_three_shipped_robots_load_with_their_chains() -> None:
     xarm = load_robot("xarm6")
     assert [joint.name for joint in xarm.arm_joints] == [f"joint{i}" for i in range(1, 7)]
     assert xarm.chain[-1].kind == "fixed" and xarm.chain[-1].child_link == "xarm_gripper_base_link"
-    assert isinstance(xarm.spec.mount, FixedMount)
+    assert isinstance(xarm.spec.mount, MobileMount)  # it rides the Panda's base in P1-P6
     iiwa = load_robot("iiwa")
+    assert isinstance(iiwa.spec.mount, FixedMount)
     assert iiwa.spec.gripper is None
     # the file's data-sheet velocities replace the URDF's 10 rad/s placeholders
     assert iiwa.velocity_limits[0] == pytest.approx(math.radians(85), abs=1e-4)
@@ -166,7 +167,10 @@ def test_reach_and_the_carry_footprint_are_derived() -> None:
     assert facts.carry_radius == pytest.approx(0.325, abs=0.002)
     assert facts.carry_fits is False
     xarm = robot_facts(load_robot("xarm6"), np.random.default_rng(0), samples=500)
-    assert xarm.carry_radius is None and xarm.carry_fits is None
+    # its carry pose folds it over the base, inside the disc
+    assert xarm.carry_radius == pytest.approx(0.237, abs=0.002) and xarm.carry_fits is True
+    iiwa = robot_facts(load_robot("iiwa"), np.random.default_rng(0), samples=50)
+    assert iiwa.carry_radius is None and iiwa.carry_fits is None  # fixed: no footprint
     assert 0.75 < xarm.reach < 0.95
     again = robot_facts(load_robot("xarm6"), np.random.default_rng(0), samples=500)
     assert again == xarm

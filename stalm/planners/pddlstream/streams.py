@@ -51,10 +51,8 @@ from stalm.motion.manipulation import (
 )
 from stalm.motion.sweeps import Segment, SweptMotion, sweep, sweep_near
 from stalm.planners.pddlstream.values import GraspValue, MotionValue, PoseValue
-from stalm.world import robot as robot_model
 from stalm.world.grip_widths import too_wide
 from stalm.world.relations import direction_between, supporting_region
-from stalm.world.robot import CARRY_CONF
 from stalm.world.state import Grasp, ObjectPose, RobotConf
 
 SE2 = tuple[float, float, float]
@@ -103,7 +101,8 @@ class StreamGeometry:
             self.sim.place_object(name, PARKED)
         for door in self.spec.doors:
             self.sim.set_door(door.name, False)
-        self.sim.set_robot(RobotConf.make(stand, CARRY_CONF[0], CARRY_CONF[1:]))
+        carry = self.sim.robot.carry_conf
+        self.sim.set_robot(RobotConf.make(stand, carry[0], carry[1:]))
 
     def _motion_from(
         self, segments: tuple[Segment, ...], own: str = ""
@@ -159,7 +158,7 @@ class StreamGeometry:
         every pose of the object relative to its standing pose shares that yaw, so the
         same transform holds at every pose."""
         frame = (CANONICAL_DISTANCE, 0.0, self._yaw_offset[obj])
-        if too_wide(self.spec.object(obj), robot_model.GRIPPER_GAP) is not None:
+        if too_wide(self.spec.object(obj), self.sim.robot.gripper.opening) is not None:
             return None
         if yaw_limited(self.spec.object(obj)):
             return self._sample_box_grasp(obj, frame, rng)
