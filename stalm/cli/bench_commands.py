@@ -121,6 +121,13 @@ def bench_predicates(
             "cores this process may use)."
         ),
     ] = 1,
+    robot: Annotated[
+        str | None,
+        typer.Option(
+            "--robot",
+            help="The robot (`stalm robot list`, or a robot file) in place of each problem's.",
+        ),
+    ] = None,
 ) -> None:
     """The batched predicate engine beside its PyBullet reference: the full computation, the
     relevance-limited one, and the cached updates after an OPEN, a PICK and a PLACE."""
@@ -181,7 +188,7 @@ def bench_predicates(
             )
             rows.append(row)
 
-        run(names, seed, report, workers)
+        run(names, seed, report, workers, robot)
     console.print(table)
     _write_rows(json_out, rows)
 

@@ -151,6 +151,15 @@ def experiment_command(
             "the check in its trial's record as 'physics'.",
         ),
     ] = False,
+    robot: Annotated[
+        str | None,
+        typer.Option(
+            "--robot",
+            help="Run every trial with this robot (a built-in one, `stalm robot list`, or a "
+            "robot file) in place of the problem's; records name it as 'robot'. Give each "
+            "robot its own --results file.",
+        ),
+    ] = None,
 ) -> None:
     """Run a paper experiment's trials; re-running the same command resumes it."""
     from stalm.cores import check_process_count
@@ -180,6 +189,10 @@ def experiment_command(
     specs = trial_specs(plan)
     if physics:
         specs = [dataclasses.replace(spec, physics=True) for spec in specs]
+    if robot is not None:
+        from stalm.experiments.trials import for_robot
+
+        specs = [for_robot(spec, robot) for spec in specs]
     # the noisy proposer's Table 3 is a table of its own, not rows added to the model's
     stem = f"{name}-noisy" if name == "table3" and base.proposer.kind == "noisy" else name
     path = results or Path("results") / f"{stem}.jsonl"

@@ -51,6 +51,11 @@ VERBOSE_HELP = (
     "them, the search's rule, what was executed) on stderr, through Python's logging."
 )
 
+ROBOT_HELP = (
+    "The robot to plan for instead of the problem's: a built-in robot (`stalm robot list`) "
+    "or a robot file. It rides the problem's mobile base; the result records it."
+)
+
 commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
 
@@ -190,6 +195,7 @@ def solve_command(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help=QUIET_HELP)] = False,
     verbose: Annotated[bool, typer.Option("--verbose", "-v", help=VERBOSE_HELP)] = False,
     physics: Annotated[bool, typer.Option("--physics", help=PHYSICS_SOLVE_HELP)] = False,
+    robot: Annotated[str | None, typer.Option("--robot", help=ROBOT_HELP)] = None,
 ) -> None:
     """Solve a problem with STaLM (or a baseline) and execute the plan in simulation."""
     from stalm.planners.registry import planner_entry, resolve
@@ -202,6 +208,8 @@ def solve_command(
                 check_output_file(path, option)
         check_size(gif_size, "--gif-size")
     loaded = load_problem(problem)
+    if robot is not None:
+        loaded = loaded.with_robot(robot)
     if no_uct:
         planner_name = "stalm-no-uct"
     entry = planner_entry(planner_name)

@@ -63,9 +63,13 @@ def _timed(compute: Callable[[], PredicateCache]) -> tuple[PredicateCache, float
     return cache, time.perf_counter() - start
 
 
-def bench_problem(name: str, seed: int = 0, workers: int = 1) -> dict[str, object]:
-    """One problem's row (see the module docstring)."""
+def bench_problem(
+    name: str, seed: int = 0, workers: int = 1, robot: str | None = None
+) -> dict[str, object]:
+    """One problem's row (see the module docstring), for ``robot`` if given."""
     problem = load_problem(name)
+    if robot is not None:
+        problem = problem.with_robot(robot)
     domain = Domain.create(problem)
     settings = PredicateSettings()
     batched, reference, relevant = (
@@ -133,10 +137,11 @@ def run(
     seed: int,
     report: Callable[[dict[str, object]], None],
     workers: int = 1,
+    robot: str | None = None,
 ) -> list[dict[str, object]]:
     rows = []
     for name in names:
-        row = bench_problem(name, seed, workers)
+        row = bench_problem(name, seed, workers, robot)
         report(row)
         rows.append(row)
     return rows

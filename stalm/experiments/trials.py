@@ -24,6 +24,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from stalm.errors import StalmError
 from stalm.files import load_yaml
 from stalm.planners.registry import build_planner, resolve
@@ -224,3 +226,16 @@ def check_problem_name(name: str) -> tuple[str, str, float, str]:
     except OSError as error:
         raise StalmError(f"cannot read the problem file {problem.source}: {error}") from error
     return problem.name, text, problem.spec.time_budget_s, str(Path(problem.source).parent)
+
+
+def for_robot(spec: TrialSpec, robot: str) -> TrialSpec:
+    """``spec``'s trial with ``robot`` (a built-in robot's name or a robot file) in place of
+    its problem's: the problem's text names it (``robot.file``), so the trial's key, its
+    problem hash and its record say which robot ran; the record also has a ``robot`` field."""
+    data = load_yaml(spec.problem_yaml, spec.problem)
+    named = Problem(
+        parse_problem(data, spec.problem, base=Path(spec.problem_dir)), spec.problem
+    ).with_robot(robot)
+    data["robot"]["file"] = named.spec.robot.file
+    text = yaml.safe_dump(data, sort_keys=False)
+    return dataclasses.replace(spec, problem_yaml=text, fields=(*spec.fields, ("robot", robot)))
