@@ -25,8 +25,19 @@ def two_bottle_p2(tmp_path_factory: pytest.TempPathFactory, problems) -> Path:
 def test_problems_lists_every_shipped_problem(monkeypatch, capsys) -> None:
     assert run_cli(monkeypatch, "problems", "--json") == 0
     rows = json.loads(capsys.readouterr().out)
-    assert [r["name"] for r in rows] == ["BOX1", "MESH1", "P1", "P2", "P3", "P4", "P5", "P6"]
-    assert [r["placements"] for r in rows] == [19, 18, 31, 23, 50, 27, 24, 27]
+    assert [r["name"] for r in rows] == [
+        "BOX1",
+        "MESH1",
+        "MOVE2",
+        "MUG1",
+        "P1",
+        "P2",
+        "P3",
+        "P4",
+        "P5",
+        "P6",
+    ]
+    assert [r["placements"] for r in rows] == [19, 18, 10, 23, 31, 23, 50, 27, 24, 27]
     assert run_cli(monkeypatch, "problems") == 0
     assert "P5" in capsys.readouterr().out
 
