@@ -16,12 +16,12 @@ attempt), a round being one series of up to five queries.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import asdict, dataclass, field
 
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
+from stalm.json_object import JsonObject
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.feedback_prompt import MAX_FAILED_PLANS, FailedPlan, with_feedback
 from stalm.llm.problem_prompt import problem_prompt
@@ -43,6 +43,27 @@ class ReplanningSettings:
     attempts_per_state: int = 5
     max_failed_plans: int = MAX_FAILED_PLANS
     temperature: float = 1.0
+
+
+@dataclass(frozen=True)
+class ReplanningDetails:
+    """Iterative-Replanning's record of a trial: the model asked, its queries (and those that
+    showed failed plans), the rounds of queries at a state, the steps forced after a round's
+    failures."""
+
+    backend: str
+    queries: int
+    queries_with_feedback: int
+    rounds: int
+    forced_steps: int
+
+    @property
+    def proposer(self) -> None:
+        """The method asks its model directly, through no task-plan proposer."""
+        return None
+
+    def to_json(self) -> JsonObject:
+        return asdict(self)
 
 
 def failed_plan(plan: ConcretePlan) -> FailedPlan:
@@ -168,15 +189,15 @@ class ReplanningRounds:
         self.rounds += 1
         return to_execute
 
-    def details(self) -> dict[str, Any]:
+    def details(self) -> ReplanningDetails:
         backend = self.planner.backend
-        return {
-            "backend": f"{backend.name}:{backend.model}",
-            "queries": self.queries,
-            "queries_with_feedback": self.feedback_queries,
-            "rounds": self.rounds,
-            "forced_steps": self.forced_steps,
-        }
+        return ReplanningDetails(
+            f"{backend.name}:{backend.model}",
+            self.queries,
+            self.feedback_queries,
+            self.rounds,
+            self.forced_steps,
+        )
 
 
 def build_iterative_replanning(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:

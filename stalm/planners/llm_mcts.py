@@ -30,11 +30,11 @@ import time
 from collections.abc import Callable, Iterable
 from contextlib import nullcontext
 from dataclasses import asdict, dataclass, replace
-from typing import Any
 
 import numpy as np
 
 from stalm.domain.actions import DiscreteAction
+from stalm.json_object import JsonObject
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.progress import Progress
@@ -81,6 +81,21 @@ class PriorStats:
     """Replies without a plan or whose first action was not legal there."""
     deadline_fallbacks: int = 0
     """Priors answered uniform because the trial's deadline had passed."""
+
+
+@dataclass(frozen=True)
+class LlmMctsDetails:
+    """LLM-MCTS's record: proposer, prior's cost, calls per step, kept roots' visits."""
+
+    proposer: str
+    prior: PriorStats
+    llm_calls_per_step: tuple[int, ...]
+    reused_root_visits: tuple[int, ...] | None
+
+    def to_json(self) -> JsonObject:
+        data = asdict(self) | {"llm_calls_per_step": list(self.llm_calls_per_step)}
+        reused = data.pop("reused_root_visits")
+        return data if reused is None else data | {"reused_root_visits": list(reused)}
 
 
 class LLMPrior:
@@ -371,15 +386,10 @@ class LlmMctsSteps:
             return (result.best_action,)
         return ()  # no feasible root action found: search again from the same state
 
-    def details(self) -> dict[str, Any]:
-        details: dict[str, Any] = {
-            "proposer": self.planner.proposer.name,
-            "prior": asdict(self.prior.stats),
-            "llm_calls_per_step": self.calls_per_step,
-        }
-        if self.trial.reuse_tree:
-            details["reused_root_visits"] = self.trial.reused_root_visits
-        return details
+    def details(self) -> LlmMctsDetails:
+        trial, name = self.trial, self.planner.proposer.name
+        reused = tuple(trial.reused_root_visits) if trial.reuse_tree else None
+        return LlmMctsDetails(name, self.prior.stats, tuple(self.calls_per_step), reused)
 
 
 def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:

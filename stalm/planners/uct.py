@@ -13,7 +13,6 @@ brought forward from its parent).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
 
 from stalm.planners.tree_step import SearchStep, StalmSettings, tree_planner
 from stalm.progress import Progress
@@ -41,17 +40,7 @@ class UctSteps:
             return SearchStep(trial, self.settings, policies)
         leaves = HcountLeafValue(trial.episode.problem, trial.memo)
         hcount = replace(policies, value=leaves)
-        return SearchStep(trial, self.settings, hcount, lambda: hcount_details(leaves))
-
-
-def hcount_details(leaves: HcountLeafValue) -> dict[str, Any]:
-    """How the leaves' predicates were made, for the trial's details."""
-    return {
-        "hcount_leaves": {
-            "predicates_from_scratch": leaves.computed_from_scratch,
-            "predicates_brought_forward": leaves.brought_forward,
-        }
-    }
+        return SearchStep(trial, self.settings, hcount, leaves)
 
 
 def uct_planner(
