@@ -15,10 +15,10 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
+from stalm.json_object import JsonObject
 from stalm.predicates.literals import GroundLiteral
 from stalm.search.concretize import ConcretePlan
 from stalm.search.failure_kinds import figure5_kind
@@ -56,7 +56,7 @@ class FailureReason:
     detail: str
     blockers: tuple[str, ...]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         return {"kind": self.kind, "detail": self.detail, "blockers": list(self.blockers)}
 
 
@@ -80,7 +80,7 @@ class TaskPlanRecord:
     detail: str | None
     reason: FailureReason | None
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         return {
             "index": self.index,
             "actions": [list(action) for action in self.actions],
@@ -119,8 +119,8 @@ class ProposalRound:
     set_aside: tuple[str, ...] = ()
     lessons: RoundLessons | None = None
 
-    def to_json(self) -> dict[str, Any]:
-        entry: dict[str, Any] = {
+    def to_json(self) -> JsonObject:
+        entry: JsonObject = {
             "round": self.round,
             "feedback_facts": self.feedback_facts,
             "plans": [plan.to_json() for plan in self.plans],
@@ -148,8 +148,8 @@ class TreeActionRecord:
     warm: bool
     children: tuple[TreeActionRecord, ...] | None = None
 
-    def to_json(self) -> dict[str, Any]:
-        node: dict[str, Any] = {
+    def to_json(self) -> JsonObject:
+        node: JsonObject = {
             "action": list(self.action),
             "n": self.n,
             "q": self.q,
@@ -174,7 +174,7 @@ class TreeRecord:
     untried_root_actions: int
     actions: tuple[TreeActionRecord, ...]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         return {
             "root_visits": self.root_visits,
             "root_visits_before": self.root_visits_before,
@@ -226,10 +226,10 @@ class StepRecord:
         """The last proposal round taught ``lessons`` (geometric feedback)."""
         self.proposals[-1] = replace(self.proposals[-1], lessons=lessons)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         """The entry as plain JSON; what a step did not reach is left out (``tree`` is kept
         as null)."""
-        entry: dict[str, Any] = {
+        entry: JsonObject = {
             "step": self.step,
             "proposals": [round_.to_json() for round_ in self.proposals],
             "tree": None if self.tree is None else self.tree.to_json(),
