@@ -35,6 +35,7 @@ import numpy as np
 
 from stalm.domain.actions import DiscreteAction
 from stalm.json_object import JsonObject
+from stalm.planners.registry_rows import planner_rows
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.progress import Progress
@@ -54,10 +55,6 @@ from stalm.world.state import State
 
 LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
 QueryHook = Callable[[Proposal], None]
-
-LLM_MCTS_BUDGET = 35
-"""N_budget of LLM-MCTS in the paper's §4.2, when ``search.sims`` is None (the registry's
-row says the same for a record)."""
 
 
 @dataclass(frozen=True)
@@ -85,7 +82,8 @@ class PriorStats:
 
 @dataclass(frozen=True)
 class LlmMctsDetails:
-    """LLM-MCTS's record: proposer, prior's cost, calls per step, kept roots' visits."""
+    """LLM-MCTS's record of a trial: its proposer, what its prior cost, the model calls of
+    each real step and, with tree reuse only (else None), the visits each kept root had."""
 
     proposer: str
     prior: PriorStats
@@ -282,11 +280,8 @@ class LlmMctsSettings:
 
     @classmethod
     def of(cls, settings: RunSettings) -> LlmMctsSettings:
-        search = settings.search
-        return cls(
-            search=search.search_settings(LLM_MCTS_BUDGET if search.sims is None else search.sims),
-            samples=search.batch,
-        )
+        budget = planner_rows()["llm-mcts"].budget(settings)
+        return cls(search=settings.search.search_settings(budget), samples=settings.search.batch)
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field, replace
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
+from stalm.planners.registry_rows import planner_rows
 from stalm.planners.tree_details import TreeDetails
 from stalm.planners.tree_step import (
     StalmSettings,
@@ -52,10 +53,6 @@ __all__ = ["StalmPlanner", "StalmSettings", "StalmStep", "StalmSteps"]
 
 log = logging.getLogger(__name__)
 """Each proposal round's plans and what Concretize made of them, at INFO."""
-
-N_BUDGET = 30
-"""STaLM's simulations per real step (Appendix B) when ``search.sims`` is None (the
-registry's row says the same for a record)."""
 
 NoGoalPlan = Callable[["StalmStep", list[ConcretePlan], StepRecord], tuple[Action, ...]]
 """What a step executes when no task plan reached the goal (STaLM: :func:`warm_started_search`;
@@ -311,8 +308,7 @@ def StalmPlanner(
     """
     check_proposer(proposer)
     run_settings = with_proposer_kind(settings or RunSettings(), proposer)
-    sims = run_settings.search.sims
-    budget = N_BUDGET if sims is None else sims
+    budget = planner_rows()["stalm"].budget(run_settings)  # STaLM w/o UCT's row says the same
     view = StalmSettings.of(run_settings, budget, proposes=True)
     steps = StalmSteps(proposer, view, no_goal_plan)
     return tree_planner(name, run_settings, steps, progress)

@@ -157,8 +157,8 @@ def test_stalm_with_the_symbolic_proposer_and_no_settings_runs_what_stalm_solve_
 
 def test_each_planners_default_budget_is_its_registry_rows_and_the_settings_name_none() -> None:
     """N_budget when ``search.sims`` is None is a row of the registry (STaLM's 30, the
-    baselines' 35), what the built planner searches with and what a record keeps; the
-    settings code names no planner."""
+    baselines' 35), written there only, what the built planner searches with and what a
+    record keeps; the settings code names no planner."""
     rows = {name: entry.sims for name, entry in planners().items()}
     assert rows == {
         "stalm": 30,
@@ -180,3 +180,7 @@ def test_each_planners_default_budget_is_its_registry_rows_and_the_settings_name
     assert isinstance(by_hand, StalmSteps) and by_hand.settings.search.budget == rows["stalm"]
     settings_code = (STALM / "settings" / "tree.py").read_text(encoding="utf-8")
     assert not re.search(r'"(stalm|uct|uct-hcount|llm-mcts)"', settings_code)
+    # the rows are the one place N_budget is written: no planner module keeps a fallback
+    for module in (STALM / "planners").glob("*.py"):
+        code = module.read_text(encoding="utf-8")
+        assert not re.search(r"^\w*BUDGET\w*\s*=", code, re.MULTILINE), module.name
