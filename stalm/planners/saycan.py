@@ -200,7 +200,7 @@ class SayCanDetails:
 
 
 @dataclass(frozen=True)
-class SayCanSettings:
+class SayCanConstants:
     """EP-SayCan's own constants, which the settings tree does not hold: the replies' votes
     mixed 0.5 with uniform (the authors' prior), the queries per state, the temperature."""
 
@@ -222,7 +222,7 @@ class SayCan:
     backend: LLMBackend
     constrained: bool
     settings: RunSettings
-    constants: SayCanSettings = SayCanSettings()
+    constants: SayCanConstants = SayCanConstants()
 
     def __call__(self, trial: Trial) -> SayCanSteps:
         return SayCanSteps(self, trial)

@@ -14,7 +14,7 @@ from stalm.planners.iterative_replanning import IterativeReplanningPlanner, Repl
 from stalm.planners.llm_mcts import LlmMctsPlanner, LlmMctsSettings
 from stalm.planners.pddlstream import AdaptiveSettings
 from stalm.planners.registry import build_planner, planners, resolve
-from stalm.planners.saycan import EpSayCanPlanner, SayCan, SayCanSettings
+from stalm.planners.saycan import EpSayCanPlanner, SayCan, SayCanConstants
 from stalm.planners.stalm import StalmPlanner, StalmSettings, StalmSteps, proposer_kind
 from stalm.planners.uct import UctSteps, uct_planner
 from stalm.proposers.fast_downward import SymbolicProposer
@@ -32,7 +32,7 @@ STALM = Path(__file__).resolve().parents[2] / "stalm"
 METHOD_CONSTANTS: dict[type, set[str]] = {
     StalmSettings: set(),
     LlmMctsSettings: {"uniform_weight"},
-    SayCanSettings: {"uniform_weight", "max_queries_per_step", "temperature"},
+    SayCanConstants: {"uniform_weight", "max_queries_per_step", "temperature"},
     ReplanningSettings: {"attempts_per_state", "max_failed_plans", "temperature"},
     AdaptiveSettings: {"initial_complexity", "search", "memory_limit_mb"},
 }
