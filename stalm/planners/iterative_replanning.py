@@ -16,12 +16,12 @@ attempt), a round being one series of up to five queries.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
-from stalm.json_object import JsonObject
+from stalm.json_object import JsonObject, record_json
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.feedback_prompt import MAX_FAILED_PLANS, FailedPlan, with_feedback
 from stalm.llm.problem_prompt import problem_prompt
@@ -63,7 +63,7 @@ class ReplanningDetails:
         return None
 
     def to_json(self) -> JsonObject:
-        return asdict(self)
+        return record_json(self)
 
 
 def failed_plan(plan: ConcretePlan) -> FailedPlan:

@@ -29,12 +29,12 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable
 from contextlib import nullcontext
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from stalm.domain.actions import DiscreteAction
-from stalm.json_object import JsonObject
+from stalm.json_object import JsonObject, record_json
 from stalm.planners.registry_rows import planner_rows
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
@@ -91,9 +91,7 @@ class LlmMctsDetails:
     reused_root_visits: tuple[int, ...] | None
 
     def to_json(self) -> JsonObject:
-        data = asdict(self) | {"llm_calls_per_step": list(self.llm_calls_per_step)}
-        reused = data.pop("reused_root_visits")
-        return data if reused is None else data | {"reused_root_visits": list(reused)}
+        return record_json(self, omitted_when_none={"reused_root_visits"})
 
 
 class LLMPrior:

@@ -34,7 +34,7 @@ from stalm.domain.mdp import Domain
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
-from stalm.json_object import JsonObject
+from stalm.json_object import JsonObject, record_json
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.saycan_prompt import saycan_prompt
 from stalm.predicates.literals import GroundLiteral
@@ -190,13 +190,7 @@ class SayCanDetails:
         return None
 
     def to_json(self) -> JsonObject:
-        return {
-            "backend": self.backend,
-            "queries": self.queries,
-            "zero_score_queries": self.zero_score_queries,
-            "kappa_failures": self.kappa_failures,
-            "decisions": [decision.to_json() for decision in self.decisions],
-        }
+        return record_json(self)
 
 
 @dataclass(frozen=True)

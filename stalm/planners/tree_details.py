@@ -8,9 +8,9 @@ adds what it injected, Hcount how its leaves' predicates were made.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
-from stalm.json_object import JsonObject
+from stalm.json_object import JsonObject, record_json
 from stalm.proposers.noisy import NoiseRecord
 from stalm.settings.tree import ExecutionRule
 from stalm.trial.step_log import StepRecord
@@ -53,16 +53,4 @@ class TreeDetails:
     hcount_leaves: HcountLeaves | None = None
 
     def to_json(self) -> JsonObject:
-        data: JsonObject = {
-            "proposer": self.proposer,
-            "settings": asdict(self.settings),
-            "proposals": self.proposals,
-            "feedback_steps_learned": self.feedback_steps_learned,
-            "reused_root_visits": list(self.reused_root_visits),
-            "step_log": [record.to_json() for record in self.step_log],
-        }
-        if self.noise is not None:
-            data["noise"] = self.noise.to_json()
-        if self.hcount_leaves is not None:
-            data["hcount_leaves"] = asdict(self.hcount_leaves)
-        return data
+        return record_json(self, omitted_when_none={"noise", "hcount_leaves"})

@@ -30,7 +30,7 @@ from stalm.domain.params import Action
 from stalm.domain.samplers import SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.json_object import JsonObject
+from stalm.json_object import JsonObject, record_json
 from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, IterationRecord, Streams
 from stalm.planners.pddlstream.execute import build_action, learn_from
 from stalm.planners.pddlstream.knowledge import Knowledge
@@ -82,20 +82,7 @@ class PddlStreamDetails:
         return None
 
     def to_json(self) -> JsonObject:
-        return {
-            "iterations": [iteration.to_json() for iteration in self.iterations],
-            "final_objects": dict(self.final_objects),
-            "final_complexity_limit": self.final_complexity_limit,
-            "stream_calls": self.stream_calls,
-            "stream_failures": self.stream_failures,
-            "stream_instances": self.stream_instances,
-            "fd_seconds": self.fd_seconds,
-            "fd_translate_seconds": self.fd_translate_seconds,
-            "sampling_seconds": self.sampling_seconds,
-            "test_seconds": self.test_seconds,
-            "collision_tests": self.collision_tests,
-            "execution_failures": list(self.execution_failures),
-        }
+        return record_json(self)
 
 
 class PDDLStreamPlanner:
