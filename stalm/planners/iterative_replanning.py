@@ -37,8 +37,9 @@ from stalm.trial.query_seeds import query_seed
 
 
 @dataclass(frozen=True)
-class ReplanningSettings:
-    """The paper's setting: 5 single-plan queries per state, 2 failed plans in the prompt."""
+class ReplanningConstants:
+    """Iterative-Replanning's own constants, which the settings tree does not hold (the
+    paper's): 5 single-plan queries per state, 2 failed plans in the prompt, temperature 1."""
 
     attempts_per_state: int = 5
     max_failed_plans: int = MAX_FAILED_PLANS
@@ -87,7 +88,7 @@ class Replanning:
     backend: LLMBackend
     constrained: bool
     options: PromptOptions
-    settings: ReplanningSettings = ReplanningSettings()
+    constants: ReplanningConstants = ReplanningConstants()
 
     def __call__(self, trial: Trial) -> ReplanningRounds:
         return ReplanningRounds(self, trial, Vocabulary.from_problem(trial.episode.problem))
@@ -131,7 +132,7 @@ class ReplanningRounds:
     rounds: int = 0
 
     def decide(self) -> Decision:
-        trial, settings = self.trial, self.planner.settings
+        trial, constants = self.trial, self.planner.constants
         episode, problem, done = trial.episode, trial.episode.problem, trial.done
         if done != self.memory_at:
             self.memory, self.memory_at = [], done
@@ -140,10 +141,10 @@ class ReplanningRounds:
         base_prompt = problem_prompt(problem, predicates.literals, self.planner.options)
         latest: ConcretePlan | None = None
         to_execute: tuple[Action, ...] = ()
-        for attempt in range(settings.attempts_per_state):
+        for attempt in range(constants.attempts_per_state):
             if episode.out_of_time():
                 break
-            recent = self.memory[-settings.max_failed_plans :]
+            recent = self.memory[-constants.max_failed_plans :]
             trial.say(f"step {done}: query {attempt + 1} ({len(recent)} failed plan(s) shown)")
             proposal = ask_for_task_plans(
                 self.planner.backend,
@@ -152,7 +153,7 @@ class ReplanningRounds:
                 1,
                 query_seed(trial.seed, self.rounds, attempt),
                 constrained=self.planner.constrained,
-                temperature=settings.temperature,
+                temperature=constants.temperature,
                 deadline=episode.deadline,
             )
             episode.record_query(proposal)
@@ -181,7 +182,7 @@ class ReplanningRounds:
                 break
             latest = concrete.plans[0]
             self.memory.append(failed_plan(latest))
-            self.memory = self.memory[-settings.max_failed_plans :]
+            self.memory = self.memory[-constants.max_failed_plans :]
         else:
             # five failures: the next action of the most recent plan, if it was feasible
             to_execute = latest.actions[:1] if latest is not None else ()

@@ -149,4 +149,5 @@ def test_replanning_solves_p2_after_one_failed_plan_is_fed_back(problems) -> Non
 def test_the_registry_builds_iterative_replanning() -> None:
     planner = build_planner("iterative-replanning", settings_of(llm="embedded", cache_mode="off"))
     assert isinstance(planner.start, Replanning)
-    assert planner.name == "iterative-replanning" and planner.start.settings.attempts_per_state == 5
+    assert planner.name == "iterative-replanning"
+    assert planner.start.constants.attempts_per_state == 5

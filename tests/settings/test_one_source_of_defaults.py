@@ -10,7 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from stalm.planners.iterative_replanning import IterativeReplanningPlanner, ReplanningSettings
+from stalm.planners.iterative_replanning import (
+    IterativeReplanningPlanner,
+    Replanning,
+    ReplanningConstants,
+)
 from stalm.planners.llm_mcts import LlmMctsPlanner, LlmMctsSettings
 from stalm.planners.pddlstream import AdaptiveSettings
 from stalm.planners.registry import build_planner, planners, resolve
@@ -33,7 +37,7 @@ METHOD_CONSTANTS: dict[type, set[str]] = {
     StalmSettings: set(),
     LlmMctsSettings: {"uniform_weight"},
     SayCanConstants: {"uniform_weight", "max_queries_per_step", "temperature"},
-    ReplanningSettings: {"attempts_per_state", "max_failed_plans", "temperature"},
+    ReplanningConstants: {"attempts_per_state", "max_failed_plans", "temperature"},
     AdaptiveSettings: {"initial_complexity", "search", "memory_limit_mb"},
 }
 """Per method settings dataclass: the fields that keep a default of their own, each a
@@ -111,10 +115,12 @@ def _trial_shape(planner: OnlinePlanner) -> tuple[object, ...]:
 
 
 def _method_reads(planner: OnlinePlanner) -> object:
-    """What ``planner``'s part holds of its settings beyond the tree (EP-SayCan reads the tree
-    itself, and holds only its constants)."""
+    """What ``planner``'s part holds of its settings beyond the tree (EP-SayCan and
+    Iterative-Replanning read the tree itself, and hold only their constants)."""
     method = planner.start
-    return method.constants if isinstance(method, SayCan) else method.settings  # type: ignore[attr-defined]
+    if isinstance(method, SayCan | Replanning):
+        return method.constants
+    return method.settings  # type: ignore[attr-defined]
 
 
 def test_the_other_planners_built_by_hand_read_what_the_registry_builds() -> None:
