@@ -18,6 +18,7 @@ from stalm.planners.iterative_replanning import (
 from stalm.planners.llm_mcts import LlmMctsPlanner, LlmMctsSettings
 from stalm.planners.pddlstream import AdaptiveSettings
 from stalm.planners.registry import build_planner, planners, resolve
+from stalm.planners.registry_rows import planner_rows
 from stalm.planners.saycan import EpSayCanPlanner, SayCan, SayCanConstants
 from stalm.planners.stalm import StalmPlanner, StalmSettings, StalmSteps, proposer_kind
 from stalm.planners.uct import UctSteps, uct_planner
@@ -186,6 +187,8 @@ def test_each_planners_default_budget_is_its_registry_rows_and_the_settings_name
     assert isinstance(by_hand, StalmSteps) and by_hand.settings.search.budget == rows["stalm"]
     settings_code = (STALM / "settings" / "tree.py").read_text(encoding="utf-8")
     assert not re.search(r'"(stalm|uct|uct-hcount|llm-mcts)"', settings_code)
+    with pytest.raises(ValueError, match="ep-saycan runs no tree search"):
+        planner_rows()["ep-saycan"].budget(tree)
     # the rows are the one place N_budget is written: no planner module keeps a fallback
     for module in (STALM / "planners").glob("*.py"):
         code = module.read_text(encoding="utf-8")
