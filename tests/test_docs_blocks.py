@@ -114,7 +114,7 @@ def test_a_python_block_runs_as_written(block: Block, capsys, tmp_path, monkeypa
     if isinstance(result, PlanResult):  # every example that solves prints the success first
         assert printed.startswith("True") and result.success, (str(block), printed)
         if "class ShortestFirst" in block.code:
-            assert result.details["proposer"] == "shortest-first"
+            assert result.details.proposer == "shortest-first"
 
 
 # ---- bash: commands that exist, with options they take ---------------------------------------

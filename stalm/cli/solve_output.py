@@ -19,6 +19,7 @@ from rich.table import Table
 from stalm.cli.display import shown
 from stalm.cli.paths import write_or_fall_back
 from stalm.errors import StalmError
+from stalm.trial.details import UnreachableGoal
 from stalm.world.problem import Problem
 from stalm.world.problem_record import problem_fields
 
@@ -77,7 +78,7 @@ def print_result(result: PlanResult) -> None:
 def proposer_label(result: PlanResult) -> str:
     """What the proposer phase of a result's times was: Fast Downward's runs (the symbolic
     proposer, and the noisy one around it) or a language model's calls."""
-    name = str(result.details.get("proposer") or "")
+    name = result.details.proposer or ""
     if name.startswith("symbolic") or (name.startswith("noisy") and "symbolic" in name):
         return "proposer (Fast Downward)"
     if name.startswith(("llm", "noisy")) or result.counters.llm_calls:
@@ -103,7 +104,7 @@ unreachable: the cause, where the run's own end ('timeout', 'horizon') is only t
 def with_unreachable_goal(result: PlanResult, why: str) -> PlanResult:
     """``result`` (a run that did not reach its goal) ending as :data:`UNREACHABLE_GOAL`; its
     details keep ``why`` and how the run itself ended."""
-    details = {**result.details, "unreachable_goal": why, "run_ended_by": result.termination}
+    details = replace(result.details, unreachable_goal=UnreachableGoal(why, result.termination))
     return replace(result, termination=UNREACHABLE_GOAL, details=details)
 
 

@@ -23,7 +23,9 @@ from stalm.errors import StalmError
 from stalm.generate.arrange import Arrangement, Knobs, arrange
 from stalm.generate.layout import Layout, load_layout, scene
 from stalm.generate.witness import NoWitness, Witness, ground_witness
+from stalm.json_object import JsonObject
 from stalm.motion.problem_check import problem_geometry_faults
+from stalm.trial.details import RunDetails
 from stalm.trial.result import Counters, PhaseTimes, PlanResult
 from stalm.world.problem import Problem
 from stalm.world.problem_file import parse_problem
@@ -40,6 +42,23 @@ HORIZON = 20
 :data:`HORIZON_SLACK` more."""
 HORIZON_SLACK = 6
 NAME = re.compile(r"[^A-Za-z0-9_]")
+
+
+@dataclass(frozen=True)
+class WitnessDetails:
+    """A witness's record in its result file: its task plan and the candidate arrangement
+    it was found for (no replay check is recorded: generation already replayed it)."""
+
+    witness: Witness
+    candidate: int
+
+    @property
+    def proposer(self) -> None:
+        return None
+
+    def to_json(self) -> JsonObject:
+        task_plan = [str(step) for step in self.witness.plan]
+        return {"witness": {"task_plan": task_plan, "candidate": self.candidate}}
 
 
 @dataclass(frozen=True)
@@ -64,12 +83,7 @@ class Generated:
             times=PhaseTimes(),
             counters=Counters(),
             termination="goal",
-            details={
-                "witness": {
-                    "task_plan": [str(step) for step in self.witness.plan],
-                    "candidate": self.candidate,
-                }
-            },
+            details=RunDetails(WitnessDetails(self.witness, self.candidate)),
         )
         return {**result.to_json(), **problem_fields(self.problem)}
 

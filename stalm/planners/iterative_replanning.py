@@ -17,11 +17,11 @@ attempt), a round being one series of up to five queries.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
+from stalm.json_object import JsonObject, record_json
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.feedback_prompt import MAX_FAILED_PLANS, FailedPlan, with_feedback
 from stalm.llm.problem_prompt import problem_prompt
@@ -37,12 +37,34 @@ from stalm.trial.query_seeds import query_seed
 
 
 @dataclass(frozen=True)
-class ReplanningSettings:
-    """The paper's setting: 5 single-plan queries per state, 2 failed plans in the prompt."""
+class ReplanningConstants:
+    """Iterative-Replanning's own constants, which the settings tree does not hold (the
+    paper's): 5 single-plan queries per state, 2 failed plans in the prompt, temperature 1."""
 
     attempts_per_state: int = 5
     max_failed_plans: int = MAX_FAILED_PLANS
     temperature: float = 1.0
+
+
+@dataclass(frozen=True)
+class ReplanningDetails:
+    """Iterative-Replanning's record of a trial: the model asked, its queries (and those that
+    showed failed plans), the rounds of queries at a state, the steps forced after a round's
+    failures."""
+
+    backend: str
+    queries: int
+    queries_with_feedback: int
+    rounds: int
+    forced_steps: int
+
+    @property
+    def proposer(self) -> None:
+        """The method asks its model directly, through no task-plan proposer."""
+        return None
+
+    def to_json(self) -> JsonObject:
+        return record_json(self)
 
 
 def failed_plan(plan: ConcretePlan) -> FailedPlan:
@@ -66,7 +88,7 @@ class Replanning:
     backend: LLMBackend
     constrained: bool
     options: PromptOptions
-    settings: ReplanningSettings = ReplanningSettings()
+    constants: ReplanningConstants = ReplanningConstants()
 
     def __call__(self, trial: Trial) -> ReplanningRounds:
         return ReplanningRounds(self, trial, Vocabulary.from_problem(trial.episode.problem))
@@ -110,7 +132,7 @@ class ReplanningRounds:
     rounds: int = 0
 
     def decide(self) -> Decision:
-        trial, settings = self.trial, self.planner.settings
+        trial, constants = self.trial, self.planner.constants
         episode, problem, done = trial.episode, trial.episode.problem, trial.done
         if done != self.memory_at:
             self.memory, self.memory_at = [], done
@@ -119,10 +141,10 @@ class ReplanningRounds:
         base_prompt = problem_prompt(problem, predicates.literals, self.planner.options)
         latest: ConcretePlan | None = None
         to_execute: tuple[Action, ...] = ()
-        for attempt in range(settings.attempts_per_state):
+        for attempt in range(constants.attempts_per_state):
             if episode.out_of_time():
                 break
-            recent = self.memory[-settings.max_failed_plans :]
+            recent = self.memory[-constants.max_failed_plans :]
             trial.say(f"step {done}: query {attempt + 1} ({len(recent)} failed plan(s) shown)")
             proposal = ask_for_task_plans(
                 self.planner.backend,
@@ -131,7 +153,7 @@ class ReplanningRounds:
                 1,
                 query_seed(trial.seed, self.rounds, attempt),
                 constrained=self.planner.constrained,
-                temperature=settings.temperature,
+                temperature=constants.temperature,
                 deadline=episode.deadline,
             )
             episode.record_query(proposal)
@@ -160,7 +182,7 @@ class ReplanningRounds:
                 break
             latest = concrete.plans[0]
             self.memory.append(failed_plan(latest))
-            self.memory = self.memory[-settings.max_failed_plans :]
+            self.memory = self.memory[-constants.max_failed_plans :]
         else:
             # five failures: the next action of the most recent plan, if it was feasible
             to_execute = latest.actions[:1] if latest is not None else ()
@@ -168,15 +190,15 @@ class ReplanningRounds:
         self.rounds += 1
         return to_execute
 
-    def details(self) -> dict[str, Any]:
+    def details(self) -> ReplanningDetails:
         backend = self.planner.backend
-        return {
-            "backend": f"{backend.name}:{backend.model}",
-            "queries": self.queries,
-            "queries_with_feedback": self.feedback_queries,
-            "rounds": self.rounds,
-            "forced_steps": self.forced_steps,
-        }
+        return ReplanningDetails(
+            f"{backend.name}:{backend.model}",
+            self.queries,
+            self.feedback_queries,
+            self.rounds,
+            self.forced_steps,
+        )
 
 
 def build_iterative_replanning(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:

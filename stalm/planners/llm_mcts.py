@@ -29,12 +29,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable
 from contextlib import nullcontext
-from dataclasses import asdict, dataclass, replace
-from typing import Any
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from stalm.domain.actions import DiscreteAction
+from stalm.json_object import JsonObject, record_json
+from stalm.planners.registry_rows import planner_rows
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.progress import Progress
@@ -54,10 +55,6 @@ from stalm.world.state import State
 
 LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
 QueryHook = Callable[[Proposal], None]
-
-LLM_MCTS_BUDGET = 35
-"""N_budget of LLM-MCTS in the paper's §4.2, when ``search.sims`` is None (the registry's
-row says the same for a record)."""
 
 
 @dataclass(frozen=True)
@@ -81,6 +78,20 @@ class PriorStats:
     """Replies without a plan or whose first action was not legal there."""
     deadline_fallbacks: int = 0
     """Priors answered uniform because the trial's deadline had passed."""
+
+
+@dataclass(frozen=True)
+class LlmMctsDetails:
+    """LLM-MCTS's record of a trial: its proposer, what its prior cost, the model calls of
+    each real step and, with tree reuse only (else None), the visits each kept root had."""
+
+    proposer: str
+    prior: PriorStats
+    llm_calls_per_step: tuple[int, ...]
+    reused_root_visits: tuple[int, ...] | None
+
+    def to_json(self) -> JsonObject:
+        return record_json(self, omitted_when_none={"reused_root_visits"})
 
 
 class LLMPrior:
@@ -267,11 +278,8 @@ class LlmMctsSettings:
 
     @classmethod
     def of(cls, settings: RunSettings) -> LlmMctsSettings:
-        search = settings.search
-        return cls(
-            search=search.search_settings(LLM_MCTS_BUDGET if search.sims is None else search.sims),
-            samples=search.batch,
-        )
+        budget = planner_rows()["llm-mcts"].budget(settings)
+        return cls(search=settings.search.search_settings(budget), samples=settings.search.batch)
 
 
 @dataclass(frozen=True)
@@ -371,15 +379,10 @@ class LlmMctsSteps:
             return (result.best_action,)
         return ()  # no feasible root action found: search again from the same state
 
-    def details(self) -> dict[str, Any]:
-        details: dict[str, Any] = {
-            "proposer": self.planner.proposer.name,
-            "prior": asdict(self.prior.stats),
-            "llm_calls_per_step": self.calls_per_step,
-        }
-        if self.trial.reuse_tree:
-            details["reused_root_visits"] = self.trial.reused_root_visits
-        return details
+    def details(self) -> LlmMctsDetails:
+        trial, name = self.trial, self.planner.proposer.name
+        reused = tuple(trial.reused_root_visits) if trial.reuse_tree else None
+        return LlmMctsDetails(name, self.prior.stats, tuple(self.calls_per_step), reused)
 
 
 def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:

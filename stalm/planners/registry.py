@@ -2,20 +2,22 @@
 
 ``stalm solve --planner NAME``, ``stalm rerun`` and ``stalm experiment`` all go through
 :func:`build_planner`, so a planner is configured the same way wherever it runs, from a
-:class:`~stalm.settings.tree.RunSettings`. The registry sits above the
-planner modules; its table holds one small builder per planner that imports the planner's
-module when it is called, so listing the planners (``stalm planners``, ``--help``) or
-resolving settings loads none of them. What the planners share with it lives below both:
-:mod:`stalm.settings.tree` and :mod:`stalm.proposers.model_backend`.
+:class:`~stalm.settings.tree.RunSettings`. The registry sits above the planner modules; it
+pairs each row of :mod:`stalm.planners.registry_rows` (name, description, N_budget) with one
+small builder that imports the planner's module when it is called, so listing the planners
+(``stalm planners``, ``--help``) or resolving settings loads none of them. What the planners
+share with it lives below both: the rows, :mod:`stalm.settings.tree` and
+:mod:`stalm.proposers.model_backend`.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 from stalm.errors import StalmError
+from stalm.planners.registry_rows import PlannerRow, planner_rows
 from stalm.progress import Progress
 from stalm.settings.tree import RunSettings
 from stalm.trial.result import Planner
@@ -23,7 +25,7 @@ from stalm.world.problem import Problem
 
 __all__ = [
     "PROPOSING",
-    "PlannerEntry",
+    "PlannerRow",
     "build_planner",
     "planner_entry",
     "planners",
@@ -35,25 +37,6 @@ Builder = Callable[[RunSettings, Progress | None], Planner]
 PROPOSING = ("stalm", "stalm-no-uct")
 """The planners whose task plans come from ``proposer.kind`` (the other model-based
 baselines ask the model with prompts of their own)."""
-
-
-@dataclass(frozen=True)
-class PlannerEntry:
-    """One planner: its name, what it is, whether it needs a language model, how to build it."""
-
-    name: str
-    description: str
-    uses_llm: bool
-    build: Builder
-    sims: int | None = None
-    """N_budget when ``search.sims`` is None: STaLM's 30 (Appendix B), the baselines' 35
-    (§4.2); None: the planner runs no tree search."""
-
-    def settings_for(self, settings: RunSettings) -> RunSettings:
-        """``settings`` as this row runs them: its N_budget where ``search.sims`` is None."""
-        if self.sims is None or settings.search.sims is not None:
-            return settings
-        return replace(settings, search=replace(settings.search, sims=self.sims))
 
 
 # Each builder imports its planner's module only when a planner is built (see the module
@@ -114,73 +97,25 @@ def _pddlstream_adaptive(settings: RunSettings, progress: Progress | None) -> Pl
     return build_pddlstream_adaptive(settings, progress)
 
 
-_ENTRIES: tuple[PlannerEntry, ...] = (
-    PlannerEntry(
-        "stalm",
-        "STaLM: task plans from the proposer, Concretize, warm-started hybrid UCT (N_budget 30)",
-        True,
-        _stalm,
-        sims=30,
-    ),
-    PlannerEntry(
-        "stalm-no-uct",
-        "STaLM without UCT (Table 3): Concretize only, then the next action of the best plan",
-        True,
-        _stalm_no_uct,
-        sims=30,
-    ),
-    PlannerEntry(
-        "uct",
-        "Hybrid UCT with random rollouts and no guidance (N_budget 35)",
-        False,
-        _uct,
-        sims=35,
-    ),
-    PlannerEntry(
-        "uct-hcount",
-        "UCT whose leaf value is Appendix C's Hcount heuristic (N_budget 35)",
-        False,
-        _uct_hcount,
-        sims=35,
-    ),
-    PlannerEntry(
-        "ep-saycan",
-        "SayCan with an empirical policy: 5 replies to a history-only prompt times precondition "
-        "affordance, no search",
-        True,
-        _ep_saycan,
-    ),
-    PlannerEntry(
-        "iterative-replanning",
-        "One plan per query; on failure re-ask with up to two failed plans and the failure "
-        "(5 attempts, then one step)",
-        True,
-        _iterative_replanning,
-    ),
-    PlannerEntry(
-        "llm-mcts",
-        "MCTS with PUCT whose prior is the first actions of 5 replies at every new node "
-        "(N_budget 35)",
-        True,
-        _llm_mcts,
-        sims=35,
-    ),
-    PlannerEntry(
-        "pddlstream-adaptive",
-        "PDDLStream's adaptive algorithm: Fast Downward over sampled values as PDDL objects, "
-        "failed samples fed back",
-        False,
-        _pddlstream_adaptive,
-    ),
-)
+_BUILDERS: dict[str, Builder] = {
+    "stalm": _stalm,
+    "stalm-no-uct": _stalm_no_uct,
+    "uct": _uct,
+    "uct-hcount": _uct_hcount,
+    "ep-saycan": _ep_saycan,
+    "iterative-replanning": _iterative_replanning,
+    "llm-mcts": _llm_mcts,
+    "pddlstream-adaptive": _pddlstream_adaptive,
+}
+"""Each row's builder (:data:`~stalm.planners.registry_rows.ROWS`), by planner name."""
 
 
-def planners() -> dict[str, PlannerEntry]:
+def planners() -> dict[str, PlannerRow]:
     """Every planner by name, in the order the README's table lists them."""
-    return {entry.name: entry for entry in _ENTRIES}
+    return planner_rows()
 
 
-def planner_entry(name: str) -> PlannerEntry:
+def planner_entry(name: str) -> PlannerRow:
     known = planners()
     if name not in known:
         raise StalmError(f"unknown planner '{name}' (available: {', '.join(known)})")
@@ -227,4 +162,4 @@ def build_planner(
 ) -> Planner:
     """The planner ``name`` configured by ``config`` (defaults: the paper's settings)."""
     entry = planner_entry(name)
-    return entry.build(entry.settings_for(config or RunSettings()), progress)
+    return _BUILDERS[name](entry.settings_for(config or RunSettings()), progress)

@@ -26,7 +26,6 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -35,6 +34,7 @@ from stalm.domain.mdp import Domain
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
+from stalm.json_object import JsonObject, record_json
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.saycan_prompt import saycan_prompt
 from stalm.predicates.literals import GroundLiteral
@@ -137,6 +137,33 @@ def affordance(domain: Domain, state: State, literals: Iterable[GroundLiteral]) 
     return affordable
 
 
+@dataclass(frozen=True)
+class SayCanDecision:
+    """What one query saw and what it chose (None: every score was 0): the replies' first
+    actions, and each candidate's votes, LLM score and affordance."""
+
+    step: int
+    query: int
+    first_actions: tuple[DiscreteAction, ...]
+    scores: tuple[SayCanScore, ...]
+    chosen: DiscreteAction | None
+
+    def to_json(self) -> JsonObject:
+        """As the result file keeps it: only the candidates some reply voted for
+        (``voted``: action, votes, LLM score to 6 places, affordance)."""
+        return {
+            "step": self.step,
+            "query": self.query,
+            "first_actions": [list(action.as_tuple()) for action in self.first_actions],
+            "voted": [
+                [list(s.action.as_tuple()), s.votes, round(s.llm, 6), s.affordance]
+                for s in self.scores
+                if s.votes > 0
+            ],
+            "chosen": None if self.chosen is None else list(self.chosen.as_tuple()),
+        }
+
+
 @dataclass
 class DecisionTally:
     """What the decisions of one trial did, for the result's details."""
@@ -144,11 +171,30 @@ class DecisionTally:
     queries: int = 0
     zero_score_queries: int = 0
     kappa_failures: int = 0
-    decisions: list[dict[str, Any]] = field(default_factory=list)
+    decisions: list[SayCanDecision] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
-class SayCanSettings:
+class SayCanDetails:
+    """EP-SayCan's record of a trial: the model asked and what its decisions did."""
+
+    backend: str
+    queries: int
+    zero_score_queries: int
+    kappa_failures: int
+    decisions: tuple[SayCanDecision, ...]
+
+    @property
+    def proposer(self) -> None:
+        """SayCan asks its model directly, through no task-plan proposer."""
+        return None
+
+    def to_json(self) -> JsonObject:
+        return record_json(self)
+
+
+@dataclass(frozen=True)
+class SayCanConstants:
     """EP-SayCan's own constants, which the settings tree does not hold: the replies' votes
     mixed 0.5 with uniform (the authors' prior), the queries per state, the temperature."""
 
@@ -170,7 +216,7 @@ class SayCan:
     backend: LLMBackend
     constrained: bool
     settings: RunSettings
-    constants: SayCanSettings = SayCanSettings()
+    constants: SayCanConstants = SayCanConstants()
 
     def __call__(self, trial: Trial) -> SayCanSteps:
         return SayCanSteps(self, trial)
@@ -208,8 +254,9 @@ class SayCan:
             episode.record_query(proposal)
             episode.failures.update("unparseable" for _ in proposal.unparseable)
             tally.queries += 1
+            firsts = tuple(plan[0] for plan in proposal.plans)
             scores = saycan_scores(
-                (plan[0] for plan in proposal.plans),
+                firsts,
                 len(proposal.replies) or self.settings.search.batch,
                 candidates,
                 affordable,
@@ -221,13 +268,15 @@ class SayCan:
                     break
                 chosen = self._draw_kappa(domain, state, best, rng)
                 if chosen is not None:
-                    tally.decisions.append(_decision(step, attempt, proposal.plans, scores, chosen))
+                    tally.decisions.append(
+                        SayCanDecision(step, attempt, firsts, scores, chosen.discrete)
+                    )
                     return chosen
                 tally.kappa_failures += 1
                 excluded.add(best)
                 say(f"step {step}: no feasible κ for {best}; excluded at this state")
             tally.zero_score_queries += 1
-            tally.decisions.append(_decision(step, attempt, proposal.plans, scores, None))
+            tally.decisions.append(SayCanDecision(step, attempt, firsts, scores, None))
             if not any(affordable(a) and a not in excluded for a in candidates):
                 say(f"step {step}: no affordable action left in this state")
                 return None
@@ -273,37 +322,15 @@ class SayCanSteps:
         self.step += 1
         return (chosen,)
 
-    def details(self) -> dict[str, Any]:
-        backend = self.planner.backend
-        return {
-            "backend": f"{backend.name}:{backend.model}",
-            "queries": self.tally.queries,
-            "zero_score_queries": self.tally.zero_score_queries,
-            "kappa_failures": self.tally.kappa_failures,
-            "decisions": self.tally.decisions,
-        }
-
-
-def _decision(
-    step: int,
-    attempt: int,
-    plans: Sequence[Sequence[DiscreteAction]],
-    scores: Sequence[SayCanScore],
-    chosen: Action | None,
-) -> dict[str, Any]:
-    """What one query saw and what it chose (None: every score was 0), as JSON-able data:
-    the replies' first actions, and each voted candidate's votes, LLM score and affordance."""
-    return {
-        "step": step,
-        "query": attempt,
-        "first_actions": [list(plan[0].as_tuple()) for plan in plans],
-        "voted": [
-            [list(s.action.as_tuple()), s.votes, round(s.llm, 6), s.affordance]
-            for s in scores
-            if s.votes > 0
-        ],
-        "chosen": list(chosen.discrete.as_tuple()) if chosen is not None else None,
-    }
+    def details(self) -> SayCanDetails:
+        backend, tally = self.planner.backend, self.tally
+        return SayCanDetails(
+            f"{backend.name}:{backend.model}",
+            tally.queries,
+            tally.zero_score_queries,
+            tally.kappa_failures,
+            tuple(tally.decisions),
+        )
 
 
 def EpSayCanPlanner(

@@ -21,11 +21,12 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
+from stalm.planners.registry_rows import planner_rows
+from stalm.planners.tree_details import TreeDetails
 from stalm.planners.tree_step import (
     StalmSettings,
     begin_step,
@@ -40,7 +41,7 @@ from stalm.proposers.feedback import FailedStep, failed_steps
 from stalm.proposers.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
 from stalm.proposers.language_model import LLMProposer
 from stalm.proposers.model_backend import llm_backend, use_constraint
-from stalm.proposers.noisy import NoisyProposer, injected_records
+from stalm.proposers.noisy import InjectedPlan, NoisyProposer, injected_records
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer, check_proposer
 from stalm.search import ConcretePlan, ConcretizeResult, SearchPolicies, TaskPlan, concretize
 from stalm.settings.tree import ProposerKind, RunSettings
@@ -52,10 +53,6 @@ __all__ = ["StalmPlanner", "StalmSettings", "StalmStep", "StalmSteps"]
 
 log = logging.getLogger(__name__)
 """Each proposal round's plans and what Concretize made of them, at INFO."""
-
-N_BUDGET = 30
-"""STaLM's simulations per real step (Appendix B) when ``search.sims`` is None (the
-registry's row says the same for a record)."""
 
 NoGoalPlan = Callable[["StalmStep", list[ConcretePlan], StepRecord], tuple[Action, ...]]
 """What a step executes when no task plan reached the goal (STaLM: :func:`warm_started_search`;
@@ -170,12 +167,16 @@ class StalmStep:
         refuted = self.memory.observe(grounded_steps(problem, concrete.plans))
         return RoundLessons(tuple(kind for _, kind in concrete.failures), learned, refuted)
 
-    def details(self) -> dict[str, Any]:
-        return {
-            **tree_details(self.trial, self.settings, self.step_log),
-            **self.account.details(),
-            "feedback_steps_learned": len(self.memory.steps),
-        }
+    def details(self) -> TreeDetails:
+        account = self.account
+        noisy = account.proposer if isinstance(account.proposer, NoisyProposer) else None
+        return replace(
+            tree_details(self.trial, self.settings, self.step_log),
+            proposer=account.proposer.name,
+            proposals=account.proposals,
+            feedback_steps_learned=len(self.memory.steps),
+            noise=None if noisy is None else noisy.record(account.injected),
+        )
 
 
 def warm_started_search(
@@ -202,7 +203,7 @@ class ProposalAccount:
     trial: Trial
     proposer: TaskPlanProposer
     proposals: int = 0
-    injected: list[dict[str, Any]] = field(default_factory=list)
+    injected: list[InjectedPlan] = field(default_factory=list)
     """The noisy proposer's plans: what was injected into each, and its Figure 5 kind."""
 
     def query(self, request: ProposalRequest) -> Proposal:
@@ -247,13 +248,6 @@ class ProposalAccount:
             f" after {len(feedback)} feedback fact(s)" if feedback else "",
             concretize_summary(concrete),
         )
-
-    def details(self) -> dict[str, Any]:
-        proposer = self.proposer
-        details: dict[str, Any] = {"proposer": proposer.name, "proposals": self.proposals}
-        if isinstance(proposer, NoisyProposer):
-            details["noise"] = {**proposer.describe(), "plans": self.injected}
-        return details
 
 
 def concretize_summary(concrete: ConcretizeResult) -> str:
@@ -314,8 +308,7 @@ def StalmPlanner(
     """
     check_proposer(proposer)
     run_settings = with_proposer_kind(settings or RunSettings(), proposer)
-    sims = run_settings.search.sims
-    budget = N_BUDGET if sims is None else sims
+    budget = planner_rows()["stalm"].budget(run_settings)  # STaLM w/o UCT's row says the same
     view = StalmSettings.of(run_settings, budget, proposes=True)
     steps = StalmSteps(proposer, view, no_goal_plan)
     return tree_planner(name, run_settings, steps, progress)

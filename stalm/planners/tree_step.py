@@ -20,14 +20,15 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any, cast
+from dataclasses import dataclass, field, replace
+from typing import cast
 
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
+from stalm.planners.tree_details import HcountLeaves, TreeDetails, TreeSettingsRecord
 from stalm.progress import Progress
 from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
+from stalm.search.hcount import HcountLeafValue
 from stalm.settings.tree import ExecutionRule, RunSettings
 from stalm.trial.online import Decision, OnlinePlanner, StartSteps, Trial
 from stalm.trial.step_log import DECISIONS, StepRecord, tree_record, warm_edges
@@ -118,8 +119,8 @@ class SearchStep:
     trial: Trial
     settings: StalmSettings
     policies: SearchPolicies
-    leaf_details: Callable[[], dict[str, Any]] = dict
-    """What the leaf value adds to the trial's details (Hcount: how its predicates came)."""
+    hcount: HcountLeafValue | None = None
+    """Hcount's leaf value, whose count of how its predicates came the details record."""
     step_log: list[StepRecord] = field(default_factory=list)
 
     def decide(self) -> Decision:
@@ -129,8 +130,12 @@ class SearchStep:
         # nothing feasible found (an empty plan): the loop asks again from the same state
         return record.executes(search(self.trial, self.settings, self.policies, [], record))
 
-    def details(self) -> dict[str, Any]:
-        return {**tree_details(self.trial, self.settings, self.step_log), **self.leaf_details()}
+    def details(self) -> TreeDetails:
+        details = tree_details(self.trial, self.settings, self.step_log)
+        if self.hcount is None:
+            return details
+        leaves = HcountLeaves(self.hcount.computed_from_scratch, self.hcount.brought_forward)
+        return replace(details, hcount_leaves=leaves)
 
 
 def begin_step(trial: Trial, step_log: list[StepRecord]) -> StepRecord:
@@ -142,25 +147,23 @@ def begin_step(trial: Trial, step_log: list[StepRecord]) -> StepRecord:
     return record
 
 
-def tree_details(
-    trial: Trial, settings: StalmSettings, step_log: list[StepRecord]
-) -> dict[str, Any]:
+def tree_details(trial: Trial, settings: StalmSettings, step_log: list[StepRecord]) -> TreeDetails:
     """A tree planner's record for ``PlanResult.details`` (no proposer: STaLM's adds its own)."""
-    return {
-        "proposer": None,
-        "settings": {
-            "reuse_tree": trial.reuse_tree,
-            "feedback": settings.feedback,
-            "execution": settings.execution,
-            "kappa_tries": settings.kappa_tries,
-            "backtracks": settings.backtracks,
-            "goal_atom_lost": trial.domain.reward_settings.goal_atom_lost,
-        },
-        "proposals": 0,
-        "feedback_steps_learned": 0,
-        "reused_root_visits": trial.reused_root_visits,
-        "step_log": [record.to_json() for record in step_log],
-    }
+    return TreeDetails(
+        proposer=None,
+        settings=TreeSettingsRecord(
+            reuse_tree=trial.reuse_tree,
+            feedback=settings.feedback,
+            execution=settings.execution,
+            kappa_tries=settings.kappa_tries,
+            backtracks=settings.backtracks,
+            goal_atom_lost=trial.domain.reward_settings.goal_atom_lost,
+        ),
+        proposals=0,
+        feedback_steps_learned=0,
+        reused_root_visits=tuple(trial.reused_root_visits),
+        step_log=tuple(step_log),
+    )
 
 
 def search(

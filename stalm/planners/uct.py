@@ -13,18 +13,14 @@ brought forward from its parent).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
 
+from stalm.planners.registry_rows import planner_rows
 from stalm.planners.tree_step import SearchStep, StalmSettings, tree_planner
 from stalm.progress import Progress
 from stalm.search import SearchPolicies
 from stalm.search.hcount import HcountLeafValue
 from stalm.settings.tree import RunSettings
 from stalm.trial.online import OnlinePlanner, Trial
-
-N_BUDGET = 35
-"""The baselines' simulations per real step (§4.2) when ``search.sims`` is None (the
-registry's rows say the same for a record)."""
 
 
 @dataclass(frozen=True)
@@ -41,17 +37,7 @@ class UctSteps:
             return SearchStep(trial, self.settings, policies)
         leaves = HcountLeafValue(trial.episode.problem, trial.memo)
         hcount = replace(policies, value=leaves)
-        return SearchStep(trial, self.settings, hcount, lambda: hcount_details(leaves))
-
-
-def hcount_details(leaves: HcountLeafValue) -> dict[str, Any]:
-    """How the leaves' predicates were made, for the trial's details."""
-    return {
-        "hcount_leaves": {
-            "predicates_from_scratch": leaves.computed_from_scratch,
-            "predicates_brought_forward": leaves.brought_forward,
-        }
-    }
+        return SearchStep(trial, self.settings, hcount, leaves)
 
 
 def uct_planner(
@@ -60,7 +46,6 @@ def uct_planner(
     """UCT run online (the 'uct' row; with ``hcount``, the 'uct-hcount' row) configured by a
     run's settings tree; of it, the proposer's part (N_batch, feedback, κ tries, backtracks)
     does not apply."""
-    sims = settings.search.sims
-    budget = N_BUDGET if sims is None else sims
+    budget = planner_rows()["uct-hcount" if hcount else "uct"].budget(settings)
     view = StalmSettings.of(settings, budget, proposes=False)
     return tree_planner(name, settings, UctSteps(view, hcount), progress, leaf_occlusion=hcount)

@@ -18,12 +18,12 @@ two need not agree: the classifier calls a plan a precondition violation only wh
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, replace
-from typing import Any
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from stalm.errors import StalmError
+from stalm.json_object import JsonObject
 from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.plan_noise import PlanContext, corrupt_plans
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
@@ -61,13 +61,11 @@ class NoisyProposer:
     def name(self) -> str:
         return f"noisy:{self.rate:g}:{self.inner.name}"
 
-    def describe(self) -> dict[str, Any]:
-        """The settings a result records with the injected kinds (``details["noise"]``)."""
-        return {
-            "rate": self.rate,
-            "weights": dict(zip(NOISE_KINDS, self.weights, strict=True)),
-            "inner": self.inner.name,
-        }
+    def record(self, plans: Sequence[InjectedPlan]) -> NoiseRecord:
+        """What a result records of this proposer (``details["noise"]``): its settings and
+        ``plans``, what it injected into each plan and how that plan's outcome was
+        classified."""
+        return NoiseRecord(self.rate, self.weights, self.inner.name, tuple(plans))
 
     @property
     def takes_feedback(self) -> bool:
@@ -91,13 +89,43 @@ class NoisyProposer:
         return replace(proposal, plans=plans, injected=injected)
 
 
+@dataclass(frozen=True)
+class InjectedPlan:
+    """One plan of a noisy proposal: what was injected into it and the Figure 5 kind its
+    outcome is classified as."""
+
+    step: int
+    round: int
+    index: int
+    injected: str
+    kind: str
+
+
+@dataclass(frozen=True)
+class NoiseRecord:
+    """The noisy proposer's settings and its plans (:class:`InjectedPlan`), for a result."""
+
+    rate: float
+    weights: tuple[float, float, float]
+    inner: str
+    plans: tuple[InjectedPlan, ...]
+
+    def to_json(self) -> JsonObject:
+        return {
+            "rate": self.rate,
+            "weights": dict(zip(NOISE_KINDS, self.weights, strict=True)),
+            "inner": self.inner,
+            "plans": [asdict(plan) for plan in self.plans],
+        }
+
+
 def injected_records(
     step: int,
     round_: int,
     injected: Sequence[str],
     concretized: Sequence[ConcretePlan],
     root_literals: Iterable[GroundLiteral],
-) -> list[dict[str, Any]]:
+) -> list[InjectedPlan]:
     """Per plan of one noisy proposal: what was injected and the Figure 5 kind its outcome is
     classified as (``reached_goal`` if it reached the goal, ``not_tried`` if Concretize
     stopped at an earlier goal plan before trying it)."""
@@ -107,13 +135,5 @@ def injected_records(
     for index, label in enumerate(injected):
         plan = by_index.get(index)
         classified = "not_tried" if plan is None else figure5_kind(plan, literals)
-        records.append(
-            {
-                "step": step,
-                "round": round_,
-                "index": index,
-                "injected": label,
-                "kind": classified or "reached_goal",
-            }
-        )
+        records.append(InjectedPlan(step, round_, index, label, classified or "reached_goal"))
     return records

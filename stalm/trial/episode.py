@@ -15,7 +15,6 @@ from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
 
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
@@ -25,6 +24,7 @@ from stalm.progress import QUIET, TrialObserver
 from stalm.proposers.protocol import Proposal
 from stalm.search.concretize import ConcretizeResult
 from stalm.search.failure_kinds import figure5_kinds
+from stalm.trial.details import MethodDetails, QueryRecord, ReplayCheck, RunDetails
 from stalm.trial.replay import replay_plan
 from stalm.trial.result import Counters, PhaseTimes, PlanResult, cpu_seconds
 from stalm.world.problem import Problem
@@ -79,27 +79,6 @@ class PhaseClock:
             outer = next((name for name in reversed(self._names) if name is not None), None)
             if phase is not None and outer is not None and outer != phase:
                 self.observer.phase(outer)  # back in the phase this one was nested in
-
-
-@dataclass(frozen=True)
-class QueryRecord:
-    """One language-model query of a trial, for the result: was it answered from the reply
-    cache, how long it took now, and how long the calls that made its replies took."""
-
-    from_cache: bool
-    seconds: float
-    original_seconds: float
-    plans: int
-    truncated_plans: int
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "from_cache": self.from_cache,
-            "seconds": round(self.seconds, 6),
-            "original_seconds": round(self.original_seconds, 6),
-            "plans": self.plans,
-            "truncated_plans": self.truncated_plans,
-        }
 
 
 @dataclass
@@ -240,7 +219,7 @@ class Episode:
         *,
         simulations: int = 0,
         replans: int = 0,
-        details: dict[str, Any] | None = None,
+        details: MethodDetails | None = None,
     ) -> PlanResult:
         """The trial's result; a 'goal' run is replayed in a fresh scene before it counts.
         ``domain`` is None for a trial whose deadline passed before its scene was built."""
@@ -285,20 +264,5 @@ class Episode:
             ),
             termination=termination,
             llm_plan_failures=dict(self.failures),
-            details={
-                **(details or {}),
-                "replay_failure": replay_reason,
-                **self._query_details(),
-            },
+            details=RunDetails(details, ReplayCheck(replay_reason), tuple(self.queries)),
         )
-
-    def _query_details(self) -> dict[str, Any]:
-        """The per-query record and its sums (nothing for a trial that asked no model)."""
-        if not self.queries:
-            return {}
-        return {
-            "llm_queries": [query.to_json() for query in self.queries],
-            "llm_queries_from_cache": sum(query.from_cache for query in self.queries),
-            "llm_seconds_now": round(sum(query.seconds for query in self.queries), 6),
-            "truncated_plans": sum(query.truncated_plans for query in self.queries),
-        }

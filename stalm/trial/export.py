@@ -19,12 +19,12 @@ the trajectories are returned.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
 from stalm.domain.schedule import GRASP, RELEASE, PlanSchedule, schedule_plan
 from stalm.errors import StalmError
+from stalm.json_object import JsonObject
 from stalm.motion.timing import LIMIT_SCALE, MotionSamples, TimedMotion
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
@@ -55,11 +55,11 @@ def check_rate(rate: float) -> float:
 
 def export_result(
     problem: Problem,
-    data: dict[str, Any],
+    data: JsonObject,
     rate: float = DEFAULT_RATE,
     source: str = "",
     limits: RobotLimits | None = None,
-) -> tuple[dict[str, Any], tuple[str, ...]]:
+) -> tuple[JsonObject, tuple[str, ...]]:
     """The trajectories of the result ``data`` (planned for ``problem``) and the warnings of
     its replay; a StalmError if a step of its plan fails when replayed."""
     check_rate(rate)
@@ -84,7 +84,7 @@ def export_result(
 
 def _trajectory(
     motion: TimedMotion, start: float, rate: float, names: tuple[str, ...]
-) -> dict[str, Any]:
+) -> JsonObject:
     samples: MotionSamples = motion.sample(rate)
     points = [
         {
@@ -104,7 +104,7 @@ def _trajectory(
     }
 
 
-def trajectories_json(problem: Problem, schedule: PlanSchedule, rate: float) -> dict[str, Any]:
+def trajectories_json(problem: Problem, schedule: PlanSchedule, rate: float) -> JsonObject:
     """The export of ``schedule`` (see the module docstring), sampled at ``rate``."""
     limits = schedule.limits
     trajectories = []
@@ -119,7 +119,7 @@ def trajectories_json(problem: Problem, schedule: PlanSchedule, rate: float) -> 
     events = []
     for event in schedule.events:
         action = schedule.actions[event.action].action
-        entry: dict[str, Any] = {"time": event.time, "action": event.action, "event": event.kind}
+        entry: JsonObject = {"time": event.time, "action": event.action, "event": event.kind}
         if event.kind == GRASP:
             grasp = action.params.grasp  # type: ignore[union-attr]
             entry.update(
@@ -170,7 +170,7 @@ def _over(values: np.ndarray, limit: float | np.ndarray, tolerance: float) -> bo
 
 
 def limit_violations(
-    exported: dict[str, Any], limits: RobotLimits, tolerance: float = LIMIT_TOLERANCE
+    exported: JsonObject, limits: RobotLimits, tolerance: float = LIMIT_TOLERANCE
 ) -> list[str]:
     """Every way the trajectories of ``exported`` break ``limits`` (empty if none): a velocity
     or acceleration over its limit at a point (the base's speed and acceleration along its

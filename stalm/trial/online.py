@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -33,6 +33,7 @@ from stalm.predicates.memo import PredicateMemo
 from stalm.progress import Progress, observer_of
 from stalm.search import SearchSettings, SearchTree
 from stalm.settings.tree import RunSettings
+from stalm.trial.details import MethodDetails
 from stalm.trial.episode import Episode
 from stalm.trial.result import PlanResult, check_seed, check_time_budget
 from stalm.world.problem import Problem
@@ -128,7 +129,7 @@ class Decider(Protocol):
         """What to do in the trial's current state."""
         ...
 
-    def details(self) -> dict[str, Any]:
+    def details(self) -> MethodDetails:
         """The method's own record for ``PlanResult.details``."""
         ...
 
@@ -193,7 +194,7 @@ class OnlinePlanner:
                 termination,
                 simulations=trial.simulations,
                 replans=trial.replans,
-                details={} if decider is None else decider.details(),
+                details=None if decider is None else decider.details(),
             )
         finally:
             domain.close()

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
 
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
@@ -29,6 +28,7 @@ from stalm.domain.plan_bounds import out_of_bounds
 from stalm.domain.serialize import action_from_json
 from stalm.domain.verify import check_action, check_consistency, check_outcome
 from stalm.errors import StalmError
+from stalm.json_object import JsonObject
 from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
 from stalm.world.state import State
 
@@ -78,7 +78,7 @@ def replay_plan(problem: Problem, start: State, actions: list[Action]) -> Replay
         domain.close()
 
 
-def replay_result_json(problem: Problem, data: dict[str, Any]) -> ReplayReport:
+def replay_result_json(problem: Problem, data: JsonObject) -> ReplayReport:
     """Replay the plan of a ``stalm solve --json`` file (or an experiment record), trusting
     nothing in it but the plan (see the module docstring)."""
     if not isinstance(data, dict):

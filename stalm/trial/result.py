@@ -12,11 +12,13 @@ import math
 import numbers
 import os
 from dataclasses import asdict, dataclass, field, fields
-from typing import Any, Protocol
+from typing import Protocol
 
 from stalm.domain.params import Action
 from stalm.domain.serialize import action_to_json
 from stalm.errors import StalmError
+from stalm.json_object import JsonObject
+from stalm.trial.details import RunDetails
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
@@ -123,9 +125,9 @@ class PlanResult:
     replay; ``stalm solve`` names 'unreachable_goal' when its check found the goal
     unreachable and the run did not reach it)."""
     llm_plan_failures: dict[str, int] = field(default_factory=dict)
-    details: dict[str, Any] = field(default_factory=dict)
+    details: RunDetails = field(default_factory=RunDetails)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         return {
             "problem": self.problem,
             "planner": self.planner,
@@ -139,7 +141,7 @@ class PlanResult:
             "times": asdict(self.times),
             "counters": asdict(self.counters),
             "llm_plan_failures": dict(self.llm_plan_failures),
-            "details": self.details,
+            "details": self.details.to_json(),
         }
 
 

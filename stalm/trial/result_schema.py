@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+
+from stalm.json_object import JsonObject
 
 SCHEMA_PATH = Path(__file__).with_name("result_schema.json")
 """The schema file, installed with the package."""
 
 
-def result_schema() -> dict[str, Any]:
+def result_schema() -> JsonObject:
     """The schema as a mapping, ready for a validator."""
-    schema: dict[str, Any] = json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))
+    schema: JsonObject = json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))
     return schema

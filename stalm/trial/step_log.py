@@ -15,10 +15,10 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
+from stalm.json_object import JsonObject, record_json
 from stalm.predicates.literals import GroundLiteral
 from stalm.search.concretize import ConcretePlan
 from stalm.search.failure_kinds import figure5_kind
@@ -47,6 +47,9 @@ DECISIONS: dict[str, str] = {
 Discrete = tuple[str, ...]
 """A discrete action as in result files: the operator, then its arguments."""
 
+STEP_PARTS_NOT_REACHED = frozenset({"decision", "searches", "rules_refuted_by_tree", "executed"})
+"""The fields of a step's record left out of its JSON while None (the step did not get there)."""
+
 
 @dataclass(frozen=True)
 class FailureReason:
@@ -55,9 +58,6 @@ class FailureReason:
     kind: str
     detail: str
     blockers: tuple[str, ...]
-
-    def to_json(self) -> dict[str, Any]:
-        return {"kind": self.kind, "detail": self.detail, "blockers": list(self.blockers)}
 
 
 @dataclass(frozen=True)
@@ -80,21 +80,8 @@ class TaskPlanRecord:
     detail: str | None
     reason: FailureReason | None
 
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "index": self.index,
-            "actions": [list(action) for action in self.actions],
-            "unparseable": self.unparseable,
-            "no_plan": self.no_plan,
-            "reached_goal": self.reached_goal,
-            "kind": self.kind,
-            "concretize_kind": self.concretize_kind,
-            "failed_step": self.failed_step,
-            "feasible_steps": self.feasible_steps,
-            "truncated": self.truncated,
-            "detail": self.detail,
-            "reason": None if self.reason is None else self.reason.to_json(),
-        }
+    def to_json(self) -> JsonObject:
+        return record_json(self)
 
 
 @dataclass(frozen=True)
@@ -119,8 +106,8 @@ class ProposalRound:
     set_aside: tuple[str, ...] = ()
     lessons: RoundLessons | None = None
 
-    def to_json(self) -> dict[str, Any]:
-        entry: dict[str, Any] = {
+    def to_json(self) -> JsonObject:
+        entry: JsonObject = {
             "round": self.round,
             "feedback_facts": self.feedback_facts,
             "plans": [plan.to_json() for plan in self.plans],
@@ -148,18 +135,8 @@ class TreeActionRecord:
     warm: bool
     children: tuple[TreeActionRecord, ...] | None = None
 
-    def to_json(self) -> dict[str, Any]:
-        node: dict[str, Any] = {
-            "action": list(self.action),
-            "n": self.n,
-            "q": self.q,
-            "kappas": self.kappas,
-            "feasible_kappas": self.feasible_kappas,
-            "warm": self.warm,
-        }
-        if self.children is not None:
-            node["children"] = [child.to_json() for child in self.children]
-        return node
+    def to_json(self) -> JsonObject:
+        return record_json(self, omitted_when_none={"children"})
 
 
 @dataclass(frozen=True)
@@ -174,16 +151,8 @@ class TreeRecord:
     untried_root_actions: int
     actions: tuple[TreeActionRecord, ...]
 
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "root_visits": self.root_visits,
-            "root_visits_before": self.root_visits_before,
-            "discrete_nodes": self.discrete_nodes,
-            "kappa_children": self.kappa_children,
-            "root_actions": self.root_actions,
-            "untried_root_actions": self.untried_root_actions,
-            "actions": [action.to_json() for action in self.actions],
-        }
+    def to_json(self) -> JsonObject:
+        return record_json(self)
 
 
 @dataclass
@@ -226,19 +195,10 @@ class StepRecord:
         """The last proposal round taught ``lessons`` (geometric feedback)."""
         self.proposals[-1] = replace(self.proposals[-1], lessons=lessons)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         """The entry as plain JSON; what a step did not reach is left out (``tree`` is kept
         as null)."""
-        entry: dict[str, Any] = {
-            "step": self.step,
-            "proposals": [round_.to_json() for round_ in self.proposals],
-            "tree": None if self.tree is None else self.tree.to_json(),
-        }
-        for key in ("decision", "searches", "rules_refuted_by_tree", "executed"):
-            value = getattr(self, key)
-            if value is not None:
-                entry[key] = value
-        return entry
+        return record_json(self, omitted_when_none=STEP_PARTS_NOT_REACHED)
 
 
 def action_json(action: object) -> Discrete:

@@ -302,7 +302,7 @@ def test_the_reused_subtree_keeps_the_n_and_q_it_had_before_the_step(problems, m
         assert after and root_visits > 0
         for state, node in after.items():
             assert node == before[state], "N and Q of a kept node are what they were"
-    assert result.details["reused_root_visits"] == [visits for _, _, visits in kept]
+    assert result.details.method.reused_root_visits == tuple(visits for _, _, visits in kept)
 
 
 class CachedProposerDouble:

@@ -83,12 +83,13 @@ def test_pddl_objects_accumulate_across_adaptive_iterations(p2_domain) -> None:
         iteration = adaptive.iterate(_initial_fluents(adaptive), rng, time.monotonic() + 60.0)
         records.append(iteration.record)
         counts.append(knowledge.object_count)
-        if iteration.record.get("failed"):
+        evaluation = iteration.record.evaluation
+        if evaluation is not None and evaluation.failed:
             # the failed instance is disabled: the next optimistic problem does not offer it
             offered = {str(o.key) for o in adaptive.streams.instantiate(adaptive.limit).values()}
-            assert iteration.record["failed"] not in offered
+            assert evaluation.failed not in offered
     assert counts == sorted(counts) and counts[-1] > before
-    assert records[-1]["pddl_objects"] > records[0]["pddl_objects"]
+    assert records[-1].pddl_objects > records[0].pddl_objects
     # nothing is ever dropped: every real object is still an object of the next problem
     text = optimistic_problem(
         knowledge,

@@ -122,7 +122,7 @@ def test_prompt_grows_with_failed_plans_and_after_five_the_latest_plans_next_ste
     assert all(u.count("Failed plan ") == min(k, 2) for k, u in enumerate(users))
     assert result.llm_plan_failures == {"precondition_violation": 4, "partially_achieved_goal": 1}
     assert result.counters.llm_calls == 5 and result.counters.replans == 4
-    assert result.details["forced_steps"] == 1
+    assert result.details.method.forced_steps == 1
 
 
 def test_replanning_solves_p2_after_one_failed_plan_is_fed_back(problems) -> None:
@@ -149,4 +149,5 @@ def test_replanning_solves_p2_after_one_failed_plan_is_fed_back(problems) -> Non
 def test_the_registry_builds_iterative_replanning() -> None:
     planner = build_planner("iterative-replanning", settings_of(llm="embedded", cache_mode="off"))
     assert isinstance(planner.start, Replanning)
-    assert planner.name == "iterative-replanning" and planner.start.settings.attempts_per_state == 5
+    assert planner.name == "iterative-replanning"
+    assert planner.start.constants.attempts_per_state == 5

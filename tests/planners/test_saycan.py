@@ -163,7 +163,7 @@ def test_replies_naming_only_an_occluded_action_still_let_an_affordable_one_run(
     )  # type: ignore[arg-type]
     assert chosen is not None and chosen.discrete in {A, C}
     assert tally.queries == 1 and tally.zero_score_queries == 0
-    assert tally.decisions[0]["voted"] == [
+    assert tally.decisions[0].to_json()["voted"] == [
         [["pick", "salter"], 5, pytest.approx(0.5 + 0.5 / 3), 0.0]
     ]
 
@@ -184,9 +184,9 @@ def test_votes_only_asks_again_then_ends_as_no_progress(problems) -> None:
     seeds = [r.seed for r in backend.requests]
     assert len(set(seeds)) == 3, "each re-ask uses the next derived seed"
     assert all(r.n == 5 and r.temperature == 1.0 for r in backend.requests)
-    decisions = result.details["decisions"]
-    assert [d["chosen"] for d in decisions] == [None, None, None]
-    assert decisions[0]["first_actions"] == [["pick", "salter"]] * 5
+    decisions = result.details.method.decisions
+    assert [d.chosen for d in decisions] == [None, None, None]
+    assert decisions[0].to_json()["first_actions"] == [["pick", "salter"]] * 5
 
 
 def test_with_nothing_affordable_left_the_trial_ends_without_asking_again(problems) -> None:

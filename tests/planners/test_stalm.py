@@ -151,12 +151,13 @@ def test_the_executed_childs_subtree_is_kept_between_steps_and_can_be_switched_o
     visits the last step's search gave it; with reuse off, each step starts from nothing."""
     kept = build_planner("uct", plain_settings(6))
     result = kept.solve(problems["P2"], seed=1, time_budget_s=20.0)
-    reused = result.details["reused_root_visits"]
+    reused = result.details.method.reused_root_visits
     assert len(result.plan) >= 2 and reused
     assert all(visits > 0 for visits in reused)
     fresh = build_planner("uct", plain_settings(6, ("execution.reuse_tree", False)))
     assert (
-        fresh.solve(problems["P2"], seed=1, time_budget_s=8.0).details["reused_root_visits"] == []
+        fresh.solve(problems["P2"], seed=1, time_budget_s=8.0).details.method.reused_root_visits
+        == ()
     )
 
 
@@ -228,10 +229,10 @@ def test_the_progress_rule_searches_on_a_counted_number_of_times_then_falls_back
     root action: a count, so the same seed decides the same on a fast or a slow machine."""
     settings = plain_settings(1, ("execution.rule", "progress"), ("execution.search_rounds", 3))
     result = build_planner("uct", settings).solve(problems["P2"], seed=0, time_budget_s=10.0)
-    first = result.details["step_log"][0]
-    assert first["decision"] == "best_q_fallback"
-    assert first["searches"] == 3
-    assert first["tree"]["root_visits"] == 3
+    first = result.details.method.step_log[0]
+    assert first.decision == "best_q_fallback"
+    assert first.searches == 3
+    assert first.tree.root_visits == 3
     again = build_planner("uct", settings).solve(problems["P2"], seed=0, time_budget_s=10.0)
     assert result.plan and again.plan and again.plan[0] == result.plan[0]
 
@@ -261,9 +262,9 @@ def test_a_proposer_that_found_no_plan_counts_as_no_plan_not_unparseable(problem
     result = StalmPlanner(NoPlanProposerDouble(), settings).solve(problems["P2"], 0, 1.5)
     assert result.llm_plan_failures.get("no_plan", 0) >= 1
     assert "unparseable" not in result.llm_plan_failures
-    first = result.details["step_log"][0]["proposals"][0]["plans"][0]
-    assert first["kind"] == "no_plan" and first["unparseable"] is None
-    assert first["no_plan"] == "the abstraction has no plan to the goal"
+    first = result.details.method.step_log[0].proposals[0].plans[0]
+    assert first.kind == "no_plan" and first.unparseable is None
+    assert first.no_plan == "the abstraction has no plan to the goal"
 
 
 def test_a_proposer_of_the_old_form_is_refused_naming_what_it_lacks() -> None:

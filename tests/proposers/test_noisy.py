@@ -8,6 +8,7 @@ salter, P6's grill in front of its walled counter), so these tests need no simul
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import asdict
 
 import pytest
 
@@ -244,7 +245,7 @@ def test_the_noisy_proposer_wraps_its_inner_proposer(problems) -> None:
     assert first.seconds == 0.01 and first.calls == 0
     # its name says what it is: a degraded proposer around another, no model
     assert noisy.name == "noisy:1:inner-test-double"
-    assert noisy.describe()["weights"]["partially_achieved_goal"] == 1.0
+    assert noisy.record(()).to_json()["weights"]["partially_achieved_goal"] == 1.0
     why = Infeasibility("no_placement", "no room on counter2")
     failed = (FailedStep(P6_PLAN, 4, why, (), (), frozenset()),)
     noisy.propose(
@@ -274,13 +275,13 @@ def test_the_record_pairs_each_injected_kind_with_the_classified_one() -> None:
     ]
     injected = ("precondition_violation", "clean", "lack_of_3d_understanding", "clean")
     records = injected_records(3, 1, injected, concretized, ())
-    assert [(r["injected"], r["kind"]) for r in records] == [
+    assert [(r.injected, r.kind) for r in records] == [
         ("precondition_violation", "precondition_violation"),
         ("clean", "partially_achieved_goal"),
         ("lack_of_3d_understanding", "reached_goal"),
         ("clean", "not_tried"),  # Concretize stopped at the goal plan before it
     ]
-    assert {(r["step"], r["round"]) for r in records} == {(3, 1)}
+    assert {(r.step, r.round) for r in records} == {(3, 1)}
 
 
 def test_the_settings_build_the_noisy_proposer_without_a_model() -> None:
@@ -327,10 +328,10 @@ def test_a_stalm_trial_records_what_was_injected(problems) -> None:
         result = StalmPlanner(noisy, settings).solve(problem, seed=5, time_budget_s=600.0)
     finally:
         inner.close()
-    noise = result.details["noise"]
-    assert noise["rate"] == 1.0 and noise["inner"] == "scripted-test-double"
-    assert result.details["proposer"] == "noisy:1:scripted-test-double"
-    entries = noise["plans"]
+    noise = result.details.method.noise
+    assert noise.rate == 1.0 and noise.inner == "scripted-test-double"
+    assert result.details.proposer == "noisy:1:scripted-test-double"
+    entries = [asdict(plan) for plan in noise.plans]
     # one proposal: the scripted suffixes that can start now (the whole plan, from each pick)
     assert [e["index"] for e in entries] == list(range(len(entries))) and len(entries) >= 3
     assert {(e["step"], e["round"]) for e in entries} == {(0, 0)}

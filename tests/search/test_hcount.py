@@ -89,10 +89,10 @@ def test_uct_hcount_runs(problems) -> None:
     result = planner.solve(two_steps, seed=0, time_budget_s=300.0)
     assert planner.name == "uct-hcount" and result.counters.simulations >= 1
     assert result.termination == "horizon" and len(result.plan) == 2
-    leaves = result.details["hcount_leaves"]
+    leaves = result.details.method.hcount_leaves
     # the first root is computed from scratch; every leaf after it comes from its parent
-    assert leaves["predicates_from_scratch"] >= 1
-    assert leaves["predicates_brought_forward"] >= 1
+    assert leaves.predicates_from_scratch >= 1
+    assert leaves.predicates_brought_forward >= 1
 
 
 def test_leaf_values_brought_forward_from_the_parent_equal_values_from_scratch(

@@ -10,11 +10,16 @@ from pathlib import Path
 
 import pytest
 
-from stalm.planners.iterative_replanning import IterativeReplanningPlanner, ReplanningSettings
+from stalm.planners.iterative_replanning import (
+    IterativeReplanningPlanner,
+    Replanning,
+    ReplanningConstants,
+)
 from stalm.planners.llm_mcts import LlmMctsPlanner, LlmMctsSettings
 from stalm.planners.pddlstream import AdaptiveSettings
 from stalm.planners.registry import build_planner, planners, resolve
-from stalm.planners.saycan import EpSayCanPlanner, SayCan, SayCanSettings
+from stalm.planners.registry_rows import planner_rows
+from stalm.planners.saycan import EpSayCanPlanner, SayCan, SayCanConstants
 from stalm.planners.stalm import StalmPlanner, StalmSettings, StalmSteps, proposer_kind
 from stalm.planners.uct import UctSteps, uct_planner
 from stalm.proposers.fast_downward import SymbolicProposer
@@ -32,8 +37,8 @@ STALM = Path(__file__).resolve().parents[2] / "stalm"
 METHOD_CONSTANTS: dict[type, set[str]] = {
     StalmSettings: set(),
     LlmMctsSettings: {"uniform_weight"},
-    SayCanSettings: {"uniform_weight", "max_queries_per_step", "temperature"},
-    ReplanningSettings: {"attempts_per_state", "max_failed_plans", "temperature"},
+    SayCanConstants: {"uniform_weight", "max_queries_per_step", "temperature"},
+    ReplanningConstants: {"attempts_per_state", "max_failed_plans", "temperature"},
     AdaptiveSettings: {"initial_complexity", "search", "memory_limit_mb"},
 }
 """Per method settings dataclass: the fields that keep a default of their own, each a
@@ -111,10 +116,12 @@ def _trial_shape(planner: OnlinePlanner) -> tuple[object, ...]:
 
 
 def _method_reads(planner: OnlinePlanner) -> object:
-    """What ``planner``'s part holds of its settings beyond the tree (EP-SayCan reads the tree
-    itself, and holds only its constants)."""
+    """What ``planner``'s part holds of its settings beyond the tree (EP-SayCan and
+    Iterative-Replanning read the tree itself, and hold only their constants)."""
     method = planner.start
-    return method.constants if isinstance(method, SayCan) else method.settings  # type: ignore[attr-defined]
+    if isinstance(method, SayCan | Replanning):
+        return method.constants
+    return method.settings  # type: ignore[attr-defined]
 
 
 def test_the_other_planners_built_by_hand_read_what_the_registry_builds() -> None:
@@ -157,8 +164,8 @@ def test_stalm_with_the_symbolic_proposer_and_no_settings_runs_what_stalm_solve_
 
 def test_each_planners_default_budget_is_its_registry_rows_and_the_settings_name_none() -> None:
     """N_budget when ``search.sims`` is None is a row of the registry (STaLM's 30, the
-    baselines' 35), what the built planner searches with and what a record keeps; the
-    settings code names no planner."""
+    baselines' 35), written there only, what the built planner searches with and what a
+    record keeps; the settings code names no planner."""
     rows = {name: entry.sims for name, entry in planners().items()}
     assert rows == {
         "stalm": 30,
@@ -180,3 +187,9 @@ def test_each_planners_default_budget_is_its_registry_rows_and_the_settings_name
     assert isinstance(by_hand, StalmSteps) and by_hand.settings.search.budget == rows["stalm"]
     settings_code = (STALM / "settings" / "tree.py").read_text(encoding="utf-8")
     assert not re.search(r'"(stalm|uct|uct-hcount|llm-mcts)"', settings_code)
+    with pytest.raises(ValueError, match="ep-saycan runs no tree search"):
+        planner_rows()["ep-saycan"].budget(tree)
+    # the rows are the one place N_budget is written: no planner module keeps a fallback
+    for module in (STALM / "planners").glob("*.py"):
+        code = module.read_text(encoding="utf-8")
+        assert not re.search(r"^\w*BUDGET\w*\s*=", code, re.MULTILINE), module.name

@@ -81,13 +81,13 @@ def test_a_replayed_query_is_charged_its_original_seconds(problems, domain_facto
     )
     result = replay.finish(domain_factory("P2"), "stalm", 0, "horizon")
     assert result.times.proposer >= SLOW and result.times.total >= result.times.proposer
-    [query] = result.details["llm_queries"]
-    assert query["from_cache"] is True and query["plans"] == 5
-    assert query["original_seconds"] == pytest.approx(made.seconds, abs=CACHE_IO)
-    assert query["seconds"] < SLOW / 2
-    assert result.details["llm_queries_from_cache"] == 1
+    [query] = result.details.queries
+    assert query.from_cache is True and query.plans == 5
+    assert query.original_seconds == pytest.approx(made.seconds, abs=CACHE_IO)
+    assert query.seconds < SLOW / 2
+    assert result.details.to_json()["llm_queries_from_cache"] == 1
     fresh_result = fresh.finish(domain_factory("P2"), "stalm", 0, "horizon")
-    assert fresh_result.details["llm_queries"][0]["from_cache"] is False
+    assert fresh_result.details.queries[0].from_cache is False
 
 
 def test_a_replayed_query_runs_out_of_the_budget_the_original_ran_out_of(problems, asks) -> None:
@@ -110,8 +110,9 @@ def test_truncated_plans_are_recorded_in_the_result(problems, domain_factory) ->
     plan = (Pick("bottle2"),)
     episode.record_query(Proposal(plans=(plan, plan), calls=1, truncated=(False, True)))
     result = episode.finish(domain_factory("P2"), "stalm", 0, "horizon")
-    assert result.details["truncated_plans"] == 1
-    assert result.details["llm_queries"][0]["truncated_plans"] == 1
+    details = result.details.to_json()
+    assert details["truncated_plans"] == 1
+    assert details["llm_queries"][0]["truncated_plans"] == 1
 
 
 def test_a_trial_records_the_cpu_seconds_it_used_apart_from_wall_time(

@@ -180,7 +180,7 @@ def test_llm_mcts_keeps_the_executed_childs_subtree_and_priors_when_asked_to(pro
         planner = LlmMctsPlanner(LLMProposer(backend, no_occlusion), settings)
         result = planner.solve(short, 0, 600.0)
         assert len(result.plan) == 2
-        return result.details
+        return result.details.to_json()
 
     kept = run(True)
     reused = kept["reused_root_visits"]

@@ -9,11 +9,12 @@ before (``times.llm``, in ``docs/results`` and ``tests/planners/data``) still lo
 from __future__ import annotations
 
 import json
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import pytest
 
+from stalm.trial.details import RunDetails
 from stalm.trial.result import Counters, PhaseTimes, PlanResult, phase_times_json
 
 ROOT = Path(__file__).parents[2]
@@ -58,6 +59,16 @@ def test_every_saved_record_in_docs_results_still_loads() -> None:
     assert seen > 0
 
 
+@dataclass(frozen=True)
+class ProposerDetailsDouble:
+    """A method's record that names only its proposer."""
+
+    proposer: str
+
+    def to_json(self) -> dict[str, object]:
+        return {"proposer": self.proposer}
+
+
 def _result(proposer: str, llm_calls: int = 0) -> PlanResult:
     return PlanResult(
         problem="P2",
@@ -69,7 +80,7 @@ def _result(proposer: str, llm_calls: int = 0) -> PlanResult:
         times=PhaseTimes(proposer=59.8, total=300.0),
         counters=Counters(llm_calls=llm_calls),
         termination="horizon",
-        details={"proposer": proposer},
+        details=RunDetails(ProposerDetailsDouble(proposer)),
     )
 
 

@@ -33,12 +33,12 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
 from stalm.errors import StalmError
+from stalm.json_object import JsonObject
 from stalm.planners.pddlstream.downward import SEARCH, fast_downward
 from stalm.planners.pddlstream.instances import Optimistic, StreamKey, Streams
 from stalm.planners.pddlstream.knowledge import Knowledge
@@ -50,6 +50,7 @@ __all__ = [
     "Adaptive",
     "AdaptiveSettings",
     "Iteration",
+    "IterationRecord",
     "StreamKey",
     "Streams",
     "fast_downward",
@@ -110,11 +111,68 @@ def optimistic_problem(
 
 
 @dataclass(frozen=True)
+class StreamPlanEvaluation:
+    """An evaluated stream plan: its instances, how many were evaluated before the first
+    failure (``failed``, None: none failed) and the seconds its sampling, its tests and the
+    whole evaluation took (to the millisecond)."""
+
+    stream_plan: int
+    evaluated: int
+    failed: str | None
+    sampling_s: float
+    tests_s: float
+    stream_plan_s: float
+
+
+@dataclass(frozen=True)
+class IterationRecord:
+    """What one adaptive iteration did, for the result: the objects of its optimistic problem,
+    Fast Downward's seconds and how the iteration ended (``result``); a plan's length, the
+    instances re-enabled after no plan, the stream plan's evaluation, and the step whose
+    execution failed with the facts learned from it, when there were such."""
+
+    complexity_limit: int
+    real_objects: int
+    optimistic_objects: int
+    pddl_objects: int
+    fd_translate_s: float
+    fd_search_s: float
+    result: str
+    plan_length: int | None = None
+    reenabled: int | None = None
+    evaluation: StreamPlanEvaluation | None = None
+    execution_failure: str | None = None
+    learned: tuple[str, ...] | None = None
+
+    def to_json(self) -> JsonObject:
+        data: JsonObject = {
+            "complexity_limit": self.complexity_limit,
+            "real_objects": self.real_objects,
+            "optimistic_objects": self.optimistic_objects,
+            "pddl_objects": self.pddl_objects,
+            "fd_translate_s": self.fd_translate_s,
+            "fd_search_s": self.fd_search_s,
+        }
+        if self.plan_length is not None:
+            data["plan_length"] = self.plan_length
+        data["result"] = self.result
+        if self.reenabled is not None:
+            data["reenabled"] = self.reenabled
+        if self.evaluation is not None:
+            data.update(asdict(self.evaluation))
+        if self.execution_failure is not None:
+            data["execution_failure"] = self.execution_failure
+        if self.learned is not None:
+            data["learned"] = list(self.learned)
+        return data
+
+
+@dataclass(frozen=True)
 class Iteration:
     """One adaptive iteration: what it did (``record``), and the plan when it uses real
     objects only (the caller executes it)."""
 
-    record: dict[str, Any]
+    record: IterationRecord
     plan: tuple[tuple[str, ...], ...] | None
 
 
@@ -148,12 +206,6 @@ class Adaptive:
         optimistic = self.streams.instantiate(self.limit)
         text = optimistic_problem(knowledge, optimistic, self.names, fluents, self.goal)
         own = sum(len(v) for v in self.names.values())
-        record: dict[str, Any] = {
-            "complexity_limit": self.limit,
-            "real_objects": knowledge.object_count,
-            "optimistic_objects": len(optimistic),
-            "pddl_objects": knowledge.object_count + len(optimistic) + own,
-        }
         search = fast_downward(
             text,
             self.settings.search,
@@ -162,25 +214,31 @@ class Adaptive:
         )
         self.fd_seconds += search.translate_s + search.search_s
         self.translate_seconds += search.translate_s
-        record["fd_translate_s"] = round(search.translate_s, 3)
-        record["fd_search_s"] = round(search.search_s, 3)
+        record = IterationRecord(
+            complexity_limit=self.limit,
+            real_objects=knowledge.object_count,
+            optimistic_objects=len(optimistic),
+            pddl_objects=knowledge.object_count + len(optimistic) + own,
+            fd_translate_s=round(search.translate_s, 3),
+            fd_search_s=round(search.search_s, 3),
+            result=search.reason,
+        )
         if search.steps is None:
-            record["result"] = search.reason
             if time.monotonic() < deadline:
-                record["reenabled"] = self.streams.reenable()
+                record = replace(record, reenabled=self.streams.reenable())
                 self.limit += 1
             return Iteration(record, None)
-        record["plan_length"] = len(search.steps)
+        record = replace(record, plan_length=len(search.steps))
         to_evaluate = stream_plan(search.steps, optimistic)
         if not to_evaluate:
-            record["result"] = "plan over real objects"
-            return Iteration(record, search.steps)
-        record.update(self._evaluate(to_evaluate, rng, deadline))
-        return Iteration(record, None)
+            return Iteration(replace(record, result="plan over real objects"), search.steps)
+        evaluation = self._evaluate(to_evaluate, rng, deadline)
+        result = "stream failure" if evaluation.failed else "streams evaluated"
+        return Iteration(replace(record, result=result, evaluation=evaluation), None)
 
     def _evaluate(
         self, to_evaluate: list[Optimistic], rng: np.random.Generator, deadline: float
-    ) -> dict[str, Any]:
+    ) -> StreamPlanEvaluation:
         """Evaluate a stream plan in order, binding optimistic inputs to the real outputs
         just produced; stop at the first failure (that instance is now disabled)."""
         tick = time.monotonic()
@@ -202,12 +260,11 @@ class Adaptive:
                 failed = str(key)
                 break
             binding[item.name] = outcome.produced
-        return {
-            "result": "stream failure" if failed else "streams evaluated",
-            "stream_plan": len(to_evaluate),
-            "evaluated": evaluated,
-            "failed": failed,
-            "sampling_s": round(self.streams.seconds - sampling_before, 3),
-            "tests_s": round(self.knowledge.test_seconds - tests_before, 3),
-            "stream_plan_s": round(time.monotonic() - tick, 3),
-        }
+        return StreamPlanEvaluation(
+            stream_plan=len(to_evaluate),
+            evaluated=evaluated,
+            failed=failed,
+            sampling_s=round(self.streams.seconds - sampling_before, 3),
+            tests_s=round(self.knowledge.test_seconds - tests_before, 3),
+            stream_plan_s=round(time.monotonic() - tick, 3),
+        )

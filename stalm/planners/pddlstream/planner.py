@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -30,13 +30,15 @@ from stalm.domain.params import Action
 from stalm.domain.samplers import SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, Streams
+from stalm.json_object import JsonObject, record_json
+from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, IterationRecord, Streams
 from stalm.planners.pddlstream.execute import build_action, learn_from
 from stalm.planners.pddlstream.knowledge import Knowledge
 from stalm.planners.pddlstream.pddl_text import Fact, goal_fact
 from stalm.planners.pddlstream.streams import StreamGeometry
 from stalm.planners.pddlstream.values import PoseValue
 from stalm.settings.tree import RunSettings
+from stalm.trial.details import ReplayCheck, RunDetails
 from stalm.trial.replay import replay_plan
 from stalm.trial.result import (
     Counters,
@@ -51,6 +53,36 @@ from stalm.world.relations import supporting_region
 from stalm.world.state import State
 
 Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class PddlStreamDetails:
+    """PDDLStream's record of a trial: each iteration (:class:`IterationRecord`), the real
+    objects and complexity limit it ended with, what the streams and tests did, Fast
+    Downward's seconds, and the plan steps whose execution failed. Seconds are to the
+    millisecond."""
+
+    iterations: tuple[IterationRecord, ...]
+    final_objects: dict[str, int]
+    """Real objects by PDDL type (pose, grasp, motion)."""
+    final_complexity_limit: int
+    stream_calls: int
+    stream_failures: int
+    stream_instances: int
+    fd_seconds: float
+    fd_translate_seconds: float
+    sampling_seconds: float
+    test_seconds: float
+    collision_tests: int
+    execution_failures: tuple[str, ...]
+
+    @property
+    def proposer(self) -> None:
+        """The method proposes its own plans (Fast Downward over optimistic objects)."""
+        return None
+
+    def to_json(self) -> JsonObject:
+        return record_json(self)
 
 
 class PDDLStreamPlanner:
@@ -106,7 +138,7 @@ class PDDLStreamPlanner:
         executed: list[Action] = []
         states: list[State] = [state]
         held_grasp: str | None = None
-        iterations: list[dict[str, Any]] = []
+        iterations: list[IterationRecord] = []
         execution_failures: list[str] = []
         termination = "timeout"
         while True:
@@ -134,8 +166,11 @@ class PDDLStreamPlanner:
                 if isinstance(built, Infeasibility):
                     failure = learn_from(knowledge, state, step, built)
                     execution_failures.append(f"{' '.join(step)}: {built}")
-                    iteration.record["execution_failure"] = str(built)
-                    iteration.record["learned"] = [" ".join(f) for f in failure.learned]
+                    iterations[-1] = dataclasses.replace(
+                        iteration.record,
+                        execution_failure=str(built),
+                        learned=tuple(" ".join(f) for f in failure.learned),
+                    )
                     break
                 state = domain.step(state, built).state
                 executed.append(built)
@@ -178,21 +213,23 @@ class PDDLStreamPlanner:
                 replans=len(iterations),
             ),
             termination=termination,
-            details={
-                "iterations": iterations,
-                "final_objects": knowledge.counts(),
-                "final_complexity_limit": adaptive.limit,
-                "stream_calls": streams.calls,
-                "stream_failures": streams.failures,
-                "stream_instances": len(streams.records),
-                "fd_seconds": round(adaptive.fd_seconds, 3),
-                "fd_translate_seconds": round(adaptive.translate_seconds, 3),
-                "sampling_seconds": round(streams.seconds, 3),
-                "test_seconds": round(knowledge.test_seconds, 3),
-                "collision_tests": knowledge.geometry.collision_tests,
-                "execution_failures": execution_failures,
-                "replay_failure": replay_reason,
-            },
+            details=RunDetails(
+                PddlStreamDetails(
+                    iterations=tuple(iterations),
+                    final_objects=knowledge.counts(),
+                    final_complexity_limit=adaptive.limit,
+                    stream_calls=streams.calls,
+                    stream_failures=streams.failures,
+                    stream_instances=len(streams.records),
+                    fd_seconds=round(adaptive.fd_seconds, 3),
+                    fd_translate_seconds=round(adaptive.translate_seconds, 3),
+                    sampling_seconds=round(streams.seconds, 3),
+                    test_seconds=round(knowledge.test_seconds, 3),
+                    collision_tests=knowledge.geometry.collision_tests,
+                    execution_failures=tuple(execution_failures),
+                ),
+                ReplayCheck(replay_reason),
+            ),
         )
 
 
