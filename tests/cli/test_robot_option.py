@@ -59,3 +59,22 @@ def test_bench_predicates_for_another_robot_gives_the_references_literals(
     assert code == 0
     (row,) = json.loads(rows.read_text())
     assert row["literals_equal"] is True and row["missed"] == 0
+
+
+def test_export_times_another_robots_plan_under_its_own_limits(monkeypatch, tmp_path) -> None:
+    from stalm.trial.export import limit_violations
+    from stalm.world.robot_limits import limits_of
+    from stalm.world.robot_loader import robot_named
+
+    result, exported = tmp_path / "p2-xarm6.json", tmp_path / "p2-xarm6-export.json"
+    assert run_cli(monkeypatch, "solve", "P2", "--robot", "xarm6", "-q", "--json", str(result)) == 0
+    assert run_cli(monkeypatch, "export", str(result), "-o", str(exported)) == 0
+    data = json.loads(exported.read_text())
+    xarm = robot_named("xarm6")
+    limits = limits_of(xarm)
+    assert data["limits"]["arm"]["joint_names"] == ["lift", *(f"joint{i}" for i in range(1, 7))]
+    assert data["limits"]["arm"]["velocity"] == [0.1, *xarm.velocity_limits]
+    assert data["limits"]["arm"]["acceleration"] == [0.5, *xarm.acceleration_limits]
+    assert data["robot"]["grasp_frame"] == "xarm_gripper_base_link"
+    assert limit_violations(data, limits) == []
+    assert run_cli(monkeypatch, "view", str(result), "-o", str(tmp_path / "page.html")) == 0
