@@ -219,7 +219,7 @@ class PandaArm:
         _panda_step_frames(
             stands,
             confs,
-            self.robot.mobile_mount.arm_mount_forward,
+            self.robot.platform.arm_mount_forward,
             panda.BASE_INERTIAL_Z,
             chain.revolute,
             chain.hand,
@@ -282,7 +282,7 @@ class UrdfArm:
         _chain_step_frames(
             np.ascontiguousarray(stands, dtype=float),
             np.ascontiguousarray(confs, dtype=float),
-            self.robot.mobile_mount.arm_mount_forward,
+            self.robot.platform.arm_mount_forward,
             self.mount_to_base,
             kinematics.origins,
             kinematics.axes,

@@ -22,6 +22,7 @@ from stalm.geometry.transforms import se2_to_world, wrap_angle
 from stalm.world.problem_file import load_problem_file, parse_problem
 from stalm.world.robot_description import Robot
 from stalm.world.robot_loader import builtin_robots, robot_named
+from stalm.world.robot_stance import fixed_base_mismatch
 from stalm.world.spec import ProblemSpec
 from stalm.world.state import ObjectPose, RobotConf, State
 
@@ -117,8 +118,10 @@ class Problem:
         data = self.spec.model_dump(mode="json")
         data["robot"]["file"] = file
         problem = Problem(parse_problem(data, f"{self.source} with --robot {robot}"), self.source)
-        loaded = problem.robot
-        _ = loaded.mobile_mount, loaded.gripper  # what planning needs: errors now, not later
+        _ = problem.robot.gripper  # what planning needs: errors now, not later
+        why = fixed_base_mismatch(problem.spec, problem.robot)
+        if why is not None:
+            raise StalmError(why)
         return problem
 
 

@@ -141,7 +141,7 @@ def limits_of(robot: Robot) -> RobotLimits:
     them, the file's accelerations, its mount's lift and base)."""
     if robot.name == "panda" and robot.urdf_path == Path(pybullet_data.getDataPath()) / ARM_URDF:
         return panda_limits()
-    mount = robot.mobile_mount
+    mount = robot.platform
     arm = JointLimits(
         (LIFT_JOINT_NAME, *(joint.name for joint in robot.arm_joints)),
         (mount.lift_speed, *robot.velocity_limits),
