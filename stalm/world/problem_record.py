@@ -14,9 +14,9 @@ must hash to the record's ``problem_hash``, so a spec edited after the solve is 
 A problem naming a file by a path relative to itself (its robot file, a mesh) is recorded
 with the folder that path starts from (``problem_folder``), so its embedded copy finds the
 same files from any working folder. ``--problem FILE`` overrides the embedded spec, checked
-against the same hash. A record
-written before records carried their problem is found by name, as it always was, and when
-that fails the error says to pass the problem file with ``--problem FILE``.
+against the same hash. A record written before records carried their problem is found by
+name, as it always was, and when that fails the error says to pass the problem file with
+``--problem FILE``.
 """
 
 from __future__ import annotations
