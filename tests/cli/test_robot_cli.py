@@ -21,10 +21,13 @@ from tests.cli_runner import run_cli
 from tests.robot_files import write_test_arm
 
 
-def test_robot_list_names_the_three_with_their_sphere_counts(monkeypatch, capsys) -> None:
+def test_robot_list_names_the_shipped_robots_with_their_sphere_counts(monkeypatch, capsys) -> None:
     assert run_cli(monkeypatch, "robot", "list") == 0
     lines = capsys.readouterr().out.splitlines()
-    assert [line.split()[0] for line in lines] == ["iiwa", "panda", "xarm6"]
+    names = ["iiwa", "panda", "panda_table", "xarm6", "xarm6_table"]
+    assert [line.split()[0] for line in lines] == names
+    assert "7 joints  fixed   gripper" in lines[2] and "124 spheres" in lines[2]  # panda_table
+    lines = [lines[0], lines[1], lines[3]]  # iiwa, panda, xarm6
     assert "6 joints  mobile  gripper" in lines[2] and "94 spheres" in lines[2]
     assert "7 joints  mobile  gripper" in lines[1] and "124 spheres" in lines[1]
 

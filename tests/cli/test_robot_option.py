@@ -31,7 +31,7 @@ def test_solve_with_another_robot_solves_and_replays(monkeypatch, tmp_path: Path
 
 def test_solve_names_a_robot_it_cannot_plan_for(monkeypatch, capsys) -> None:
     assert run_cli(monkeypatch, "solve", "P2", "--robot", "iiwa") == 2
-    assert "robot 'iiwa' is fixed at a pose" in capsys.readouterr().err
+    assert "'iiwa' has no gripper" in capsys.readouterr().err
 
 
 def test_an_experiments_trials_name_their_robot() -> None:
@@ -44,7 +44,7 @@ def test_an_experiments_trials_name_their_robot() -> None:
         assert other.key != spec.key and other.seed == spec.seed
         assert ("robot", "xarm6") in other.fields
         assert "file: xarm6" in other.problem_yaml
-    with pytest.raises(Exception, match="mount kind 'fixed'"):
+    with pytest.raises(Exception, match="has no gripper"):
         for_robot(specs[0], "iiwa")
 
 
