@@ -36,9 +36,9 @@ def test_robot_check_prints_chain_limits_reach_spheres_and_the_check(monkeypatch
     assert run_cli(monkeypatch, "robot", "check", "xarm6", "--samples", "500") == 0
     out = capsys.readouterr().out
     assert "chain     link_base -> xarm_gripper_base_link: 6 revolute joints (+1 fixed)" in out
-    assert "  joint2                    -2.0590   2.0944   3.140   20.00  -2.0560" in out
+    assert "  joint2                    -2.0590   2.0944   3.140   20.00  -1.7000" in out
     assert "mount     mobile: disc base r 0.3 m, h 0.35 m; arm 0.15 m ahead" in out
-    assert "carry pose reaches 0.237 m from the base centre: inside the 0.3 m base" in out
+    assert "carry pose reaches 0.229 m from the base centre: inside the 0.3 m base" in out
     assert "gripper   opening 0.0869 m (fingers' collision geometry 0.0869 m apart" in out
     assert "reach     0." in out and "from the shoulder (joint2)" in out
     assert "spheres   94 (shipped, delta 0.02 m): link_base 12, link1 10" in out

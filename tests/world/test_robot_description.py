@@ -168,7 +168,7 @@ def test_reach_and_the_carry_footprint_are_derived() -> None:
     assert facts.carry_fits is False
     xarm = robot_facts(load_robot("xarm6"), np.random.default_rng(0), samples=500)
     # its carry pose folds it over the base, inside the disc
-    assert xarm.carry_radius == pytest.approx(0.237, abs=0.002) and xarm.carry_fits is True
+    assert xarm.carry_radius == pytest.approx(0.229, abs=0.002) and xarm.carry_fits is True
     iiwa = robot_facts(load_robot("iiwa"), np.random.default_rng(0), samples=50)
     assert iiwa.carry_radius is None and iiwa.carry_fits is None  # fixed: no footprint
     assert 0.75 < xarm.reach < 0.95
