@@ -135,7 +135,14 @@ class Samplers:
         path = self.base_path(state, stand)
         if isinstance(path, Infeasibility):
             return path
-        window = grasp_window(obj, pose, stand, self.settings.pitch_range, self.settings.yaw_range)
+        window = grasp_window(
+            obj,
+            pose,
+            stand,
+            self.settings.pitch_range,
+            self.settings.yaw_range,
+            gap=self.sim.robot.gripper.opening,
+        )
         if window is None:
             wide = too_wide(obj, self.sim.robot.gripper.opening)
             return Infeasibility(

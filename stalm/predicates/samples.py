@@ -207,7 +207,8 @@ class MotionSamples:
         region = self.spec.region(region_name)
         stand = region.base_pose
         spec = self.spec.object(obj)
-        window = grasp_window(spec, pose, stand, self.pitch_range, self.yaw_range)
+        gap = self.sim.robot.gripper.opening
+        window = grasp_window(spec, pose, stand, self.pitch_range, self.yaw_range, gap=gap)
         rng = np.random.default_rng(stable_seed(self.settings.seed, "pick", obj))
         motions: list[SweptMotion] = []
         grasp: Grasp | None = None

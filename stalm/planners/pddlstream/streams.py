@@ -184,6 +184,7 @@ class StreamGeometry:
             (0.0, 0.0, 0.0),
             self.settings.pitch_range,
             self.settings.yaw_range,
+            gap=self.sim.robot.gripper.opening,
         )
         if window is None:
             return None
