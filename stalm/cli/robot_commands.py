@@ -27,13 +27,15 @@ def list_command() -> None:
     from stalm.motion.sphere_fit_store import robot_spheres
     from stalm.world.robot_loader import builtin_robots, load_robot
 
-    for name in builtin_robots():
+    names = builtin_robots()
+    width = max(len(name) for name in names)
+    for name in names:
         robot = load_robot(name)
         spheres, _ = robot_spheres(robot)
         gripper = "gripper" if robot.spec.gripper is not None else "no gripper"
         typer.echo(
-            f"{name:8} {len(robot.arm_joints)} joints  {robot.spec.mount.kind:6}  {gripper:10}  "
-            f"{spheres.total} spheres  {robot.urdf_path.name}"
+            f"{name:{width}} {len(robot.arm_joints)} joints  {robot.spec.mount.kind:6}  "
+            f"{gripper:10}  {spheres.total} spheres  {robot.urdf_path.name}"
         )
 
 
