@@ -27,7 +27,10 @@ def no_arm_run(monkeypatch: pytest.MonkeyPatch) -> None:
 @pytest.mark.parametrize(
     ("args", "named"),
     [
-        (["--robot", "ur5"], "no robot 'ur5': give a robot file or one of iiwa, panda, xarm6"),
+        (
+            ["--robot", "ur5"],
+            "no robot 'ur5': give a robot file or one of iiwa, iiwa_gripper, panda, xarm6",
+        ),
         (["--robot", "xarm6", "P2"], "--robot xarm6 is benchmarked fixed at the origin"),
         (["--robot", "iiwa", "--attempts", "0"], "--attempts must be at least 1, got 0"),
     ],
