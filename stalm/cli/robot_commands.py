@@ -33,9 +33,10 @@ def list_command() -> None:
         robot = load_robot(name)
         spheres, _ = robot_spheres(robot)
         gripper = "gripper" if robot.spec.gripper is not None else "no gripper"
+        joints, kind = len(robot.arm_joints), robot.spec.mount.kind
         typer.echo(
-            f"{name:{width}} {len(robot.arm_joints)} joints  {robot.spec.mount.kind:6}  "
-            f"{gripper:10}  {spheres.total} spheres  {robot.urdf_path.name}"
+            f"{name:{width}} {joints} joints  {kind:6}  {gripper:10}  "
+            f"{spheres.total} spheres  {robot.urdf_path.name}"
         )
 
 

@@ -94,7 +94,7 @@ def _beyond_limits(robot: Robot, conf: Sequence[float], what: str) -> str | None
             f"'{what}' has {len(conf)} numbers: {robot.name}'s configuration is the lift and "
             f"{len(robot.joint_limits)} joints"
         )
-    low, high = robot.mobile_mount.lift_range
+    low, high = robot.platform.lift_range
     if not low - LIMIT_TOLERANCE <= conf[0] <= high + LIMIT_TOLERANCE:
         return f"'{what}' lift {conf[0]:g} m is outside its range [{low:g}, {high:g}]"
     joints = zip(conf[1:], robot.joint_limits, strict=True)

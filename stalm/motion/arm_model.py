@@ -10,7 +10,8 @@ collision test, IK and the samplers compute with. Two kinds answer the same ques
   on the chain its robot file names and the spheres fitted to its URDF
   (:mod:`stalm.motion.sphere_fit_store`). A link off the chain (a gripper's knuckles and
   fingers, held open) rides on the chain frame it hangs from, at the pose the open gripper
-  gives it.
+  gives it; a link no arm joint moves (a mount plate at the URDF's root, above the base link)
+  rides on the base link.
 
 The Panda read as a :class:`UrdfArm` is the reference the tests compare :class:`PandaArm`
 with (the same frames to 1e-9 m).
@@ -219,7 +220,7 @@ class PandaArm:
         _panda_step_frames(
             stands,
             confs,
-            self.robot.mobile_mount.arm_mount_forward,
+            self.robot.platform.arm_mount_forward,
             panda.BASE_INERTIAL_Z,
             chain.revolute,
             chain.hand,
@@ -282,7 +283,7 @@ class UrdfArm:
         _chain_step_frames(
             np.ascontiguousarray(stands, dtype=float),
             np.ascontiguousarray(confs, dtype=float),
-            self.robot.mobile_mount.arm_mount_forward,
+            self.robot.platform.arm_mount_forward,
             self.mount_to_base,
             kinematics.origins,
             kinematics.axes,
@@ -324,7 +325,9 @@ def urdf_arm(robot: Robot) -> UrdfArm:
             while ancestor not in chain_links and ancestor != -1:
                 ancestor = int(loaded.joint_info(ancestor)[16])
             if ancestor not in chain_links:
-                continue  # a link above the arm's base (none in the shipped robots)
+                # above the arm's base link (a mount plate at the URDF's root) or beside it:
+                # no arm joint moves it, so it rides on the base link where it was loaded
+                ancestor = base_index
             frame = chain_links.index(ancestor)
             local = np.linalg.inv(loaded.link_frame(ancestor)) @ loaded.link_frame(index)
             centres = link.centres @ local[:3, :3].T + local[:3, 3]

@@ -35,7 +35,9 @@ class IKSolution:
 
 def lift_candidates(sim: Sim, target_z: float) -> tuple[float, ...]:
     """Lift heights to try for a target height: shoulder near the target first."""
-    low, high = sim.robot.mobile_mount.lift_range
+    low, high = sim.robot.platform.lift_range
+    if low == high:
+        return (low,)  # a fixed arm: its mount's height
     preferred = target_z - arm_of(sim).shoulder_above_mount + 0.05
     values = []
     for offset in (0.0, 0.15, -0.15, 0.3):

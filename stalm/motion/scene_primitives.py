@@ -136,7 +136,7 @@ class ScenePrimitives:
         self.spheres = arm.spheres
         self.groups = self.spheres.groups
         self.grasp_frame = arm.grasp_frame
-        mount = sim.robot.mobile_mount
+        mount = sim.robot.platform
         self.base_box = np.array(
             [
                 box_row(

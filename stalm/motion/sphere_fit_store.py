@@ -7,7 +7,8 @@ fit's ``delta``; a set whose hash differs is never used. Looked up in order:
 
 1. ``<robot file>.spheres.json`` beside the robot file: the built-in robots ship theirs
    (``python -m stalm.motion.sphere_fit_store`` writes them again), so nothing is fitted at
-   run time for them; a user may ship one beside their own robot file too;
+   run time for them; a user may ship one beside their own robot file too; else a built-in
+   robot's set fitted to the same URDF (a robot file that mounts a shipped arm otherwise);
 2. the cache (``<stalm cache>/spheres/<hash>-<delta>.json``);
 3. a new fit, with a Generator seeded by :data:`FIT_SEED`, written to the cache.
 """
@@ -33,7 +34,7 @@ from stalm.motion.sphere_fit import (
     fit_link_spheres,
 )
 from stalm.world.link_shapes import body_convex_parts
-from stalm.world.robot_description import Robot
+from stalm.world.robot_description import ROBOTS_DIR, Robot
 from stalm.world.robot_loader import builtin_robots, load_robot
 from stalm.world.robot_urdf import urdf_body
 
@@ -145,6 +146,9 @@ def _usable(path: Path, robot: Robot, delta: float) -> RobotSpheres | None:
 def robot_spheres(robot: Robot, delta: float = DELTA) -> tuple[RobotSpheres, str]:
     """``robot``'s spheres and where they came from (``shipped``, ``cache`` or ``fitted``)."""
     shipped = _usable(beside_file(robot), robot, delta)
+    for name in builtin_robots():  # another file of a shipped URDF (a fixed Panda, say)
+        if shipped is None:
+            shipped = _usable(ROBOTS_DIR / f"{name}.spheres.json", robot, delta)
     if shipped is not None:
         return shipped, "shipped"
     cached = _usable(cache_file(robot, delta), robot, delta)

@@ -29,7 +29,7 @@ from stalm.motion.timing import LIMIT_SCALE, MotionSamples, TimedMotion
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
 from stalm.world.robot import GRASP_FRAME, MOUNT_DESCRIPTION
-from stalm.world.robot_limits import RobotLimits, panda_limits
+from stalm.world.robot_limits import RobotLimits, limits_of
 
 EXPORT_FORMAT = "stalm-trajectories/1"
 """The ``format`` field of an export: the schema's name and version."""
@@ -72,7 +72,7 @@ def export_result(
     warnings = list(report.warnings)
     if not report.reached_goal:
         warnings.append(f"the plan does not reach the goal ({report.reason})")
-    schedule = schedule_plan(report.actions, limits or panda_limits())
+    schedule = schedule_plan(report.actions, limits or limits_of(problem.robot))
     exported = trajectories_json(problem, schedule, rate)
     exported["source"] = source
     exported["reached_goal"] = report.reached_goal
@@ -107,6 +107,9 @@ def _trajectory(
 def trajectories_json(problem: Problem, schedule: PlanSchedule, rate: float) -> JsonObject:
     """The export of ``schedule`` (see the module docstring), sampled at ``rate``."""
     limits = schedule.limits
+    robot = problem.robot
+    # the Panda's grasp frame is a URDF link; another robot's may be its tool link moved
+    grasp_frame = GRASP_FRAME if robot.name == "panda" else robot.spec.tool_link
     trajectories = []
     for index, timing in enumerate(schedule.actions):
         step = str(timing.action)
@@ -124,7 +127,7 @@ def trajectories_json(problem: Problem, schedule: PlanSchedule, rate: float) -> 
             grasp = action.params.grasp  # type: ignore[union-attr]
             entry.update(
                 object=event.name,
-                frame=GRASP_FRAME,
+                frame=grasp_frame,
                 grasp={"position": list(grasp.position), "orientation": list(grasp.orientation)},
             )
         elif event.kind == RELEASE:
@@ -142,7 +145,7 @@ def trajectories_json(problem: Problem, schedule: PlanSchedule, rate: float) -> 
             "urdf": limits.urdf,
             "urdf_sha256": limits.urdf_sha256,
             "mount": MOUNT_DESCRIPTION,
-            "grasp_frame": GRASP_FRAME,
+            "grasp_frame": grasp_frame,
         },
         "limits": {
             "scale": LIMIT_SCALE,

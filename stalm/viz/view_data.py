@@ -38,7 +38,7 @@ from stalm.trial.step_log import DECISIONS
 from stalm.viz.animate import plan_motion_places
 from stalm.world.mesh_files import read_obj
 from stalm.world.problem import Problem
-from stalm.world.robot_limits import panda_limits
+from stalm.world.robot_limits import limits_of
 from stalm.world.scene import Sim
 from stalm.world.state import State
 
@@ -240,7 +240,7 @@ def motion_frames(
     and the arm's figure."""
     moving = _moving_bodies(sim)
     if schedule is None:
-        schedule = schedule_plan([action for action, _ in plan], panda_limits())
+        schedule = schedule_plan([action for action, _ in plan], limits_of(sim.robot))
     places: list[tuple[int, str, int, float]] = []
     poses: list[list[float]] = []
     arms: list[list[Any]] = []
@@ -326,7 +326,7 @@ def view_data(problem: Problem, data: dict[str, Any], source: str = "") -> dict[
                 f"({report.reason}); the animation stops before it"
             )
     pairs = list(zip(parsed, states[1:], strict=False))
-    schedule = schedule_plan([action for action, _ in pairs], panda_limits())
+    schedule = schedule_plan([action for action, _ in pairs], limits_of(problem.robot))
     with Sim(problem.spec) as sim:
         sim.set_state(problem.initial_state)
         meshes = scene_meshes(sim)

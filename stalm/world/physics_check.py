@@ -283,7 +283,7 @@ class _PhysicsWorld:
             raise
         self.spec = spec
         self.bodies = bodies
-        self.mount_forward = robot.mobile_mount.arm_mount_forward
+        self.mount_forward = robot.platform.arm_mount_forward
         self.arm_links = range(-1, p.getNumJoints(bodies.arm, physicsClientId=c))
         self.pin: int | None = None
         self.pinned: str | None = None

@@ -22,6 +22,7 @@ from stalm.geometry.transforms import se2_to_world, wrap_angle
 from stalm.world.problem_file import load_problem_file, parse_problem
 from stalm.world.robot_description import Robot
 from stalm.world.robot_loader import builtin_robots, robot_named
+from stalm.world.robot_stance import fixed_base_mismatch
 from stalm.world.spec import ProblemSpec
 from stalm.world.state import ObjectPose, RobotConf, State
 
@@ -109,16 +110,19 @@ class Problem:
     def with_robot(self, robot: str) -> Problem:
         """This problem for another robot (``--robot``): a built-in robot's name, or a robot
         file's path (relative to the working folder), which the problem then names by its
-        absolute path. A StalmError if the robot cannot be loaded, has no gripper, or is not
-        on a mobile base."""
+        absolute path; the problem's own relative paths (a mesh) keep their folder. A
+        StalmError if the robot cannot be loaded, has no gripper, or is not on a mobile base."""
         path = Path(robot).expanduser()
         named = robot in builtin_robots() or (path.suffix == "" and len(path.parts) == 1)
         file = robot if named else str(path.resolve())  # a bare word: a (maybe unknown) name
         data = self.spec.model_dump(mode="json")
         data["robot"]["file"] = file
-        problem = Problem(parse_problem(data, f"{self.source} with --robot {robot}"), self.source)
-        loaded = problem.robot
-        _ = loaded.mobile_mount, loaded.gripper  # what planning needs: errors now, not later
+        source = f"{self.source} with --robot {robot}"
+        problem = Problem(parse_problem(data, source, base=self.spec.files_folder), self.source)
+        _ = problem.robot.gripper  # what planning needs: errors now, not later
+        why = fixed_base_mismatch(problem.spec, problem.robot)
+        if why is not None:
+            raise StalmError(why)
         return problem
 
 

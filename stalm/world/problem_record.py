@@ -11,9 +11,12 @@ A record is untrusted input (someone may send it): its embedded spec is bounded 
 file is (:data:`~stalm.files.MAX_PROBLEM_FILE_BYTES`), validated by the same models and guards
 (:func:`~stalm.world.problem_file.parse_problem`, errors naming the record and the field), and
 must hash to the record's ``problem_hash``, so a spec edited after the solve is refused.
-``--problem FILE`` overrides the embedded spec, checked against the same hash. A record
-written before records carried their problem is found by name, as it always was, and when
-that fails the error says to pass the problem file with ``--problem FILE``.
+A problem naming a file by a path relative to itself (its robot file, a mesh) is recorded
+with the folder that path starts from (``problem_folder``), so its embedded copy finds the
+same files from any working folder. ``--problem FILE`` overrides the embedded spec, checked
+against the same hash. A record written before records carried their problem is found by
+name, as it always was, and when that fails the error says to pass the problem file with
+``--problem FILE``.
 """
 
 from __future__ import annotations
@@ -30,6 +33,12 @@ from stalm.world.problem_file import parse_problem
 
 PROBLEM_SPEC_FIELD = "problem_spec"
 """The field of a result that holds the problem it was solved on, as validated data."""
+PROBLEM_FOLDER_FIELD = "problem_folder"
+"""The field of a result that holds the folder (absolute) the embedded problem's relative
+file paths (a robot file, a mesh) resolve against; written only for a problem that names a
+file so, and not part of the problem's hash (moving the files keeps the problem the same)."""
+MAX_FOLDER_CHARS = 4096
+"""The longest ``problem_folder`` a record may give (a path, not a document)."""
 RECORD_PROBLEM_HELP = (
     "The problem file (or name) to use instead of the one the record carries; its problem "
     "hash must be the record's."
@@ -40,12 +49,17 @@ _HASH_CHARS = 40
 
 
 def problem_fields(problem: Problem) -> dict[str, Any]:
-    """What a result records of its problem: the name, the hash and the spec itself."""
-    return {
+    """What a result records of its problem: the name, the hash, the spec itself and, if the
+    spec names a file by a relative path, the folder that path starts from."""
+    fields: dict[str, Any] = {
         "problem": problem.name,
         PROBLEM_HASH_FIELD: problem.content_hash,
         PROBLEM_SPEC_FIELD: problem.spec.model_dump(mode="json"),
     }
+    folder = problem.spec.files_folder
+    if folder is not None:
+        fields[PROBLEM_FOLDER_FIELD] = str(folder)
+    return fields
 
 
 def embedded_problem(record: Mapping[str, object], source: str) -> Problem | None:
@@ -62,7 +76,14 @@ def embedded_problem(record: Mapping[str, object], source: str) -> Problem | Non
             f"{where}: too long for a problem ({size} bytes; a problem file has at most "
             f"{MAX_PROBLEM_FILE_BYTES})"
         )
-    problem = Problem(parse_problem(data, where), f"{source} (its embedded problem)")
+    folder = record.get(PROBLEM_FOLDER_FIELD)
+    if folder is not None and not (isinstance(folder, str) and 0 < len(folder) <= MAX_FOLDER_CHARS):
+        raise StalmError(
+            f"{source}: {PROBLEM_FOLDER_FIELD}: not a folder's path (text of 1 to "
+            f"{MAX_FOLDER_CHARS} characters)"
+        )
+    base = None if folder is None else Path(folder)
+    problem = Problem(parse_problem(data, where, base=base), f"{source} (its embedded problem)")
     recorded = record.get(PROBLEM_HASH_FIELD)
     if recorded != problem.content_hash:
         raise StalmError(

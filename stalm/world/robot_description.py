@@ -147,6 +147,33 @@ class ChainJoint:
     velocity: float
 
 
+FIXED_PEDESTAL = (0.05, 0.02)
+"""Radius and height (m) of the disc a fixed arm's base body is: a marker on the floor under
+its mount that nothing reaches, since the base never moves."""
+
+
+@dataclass(frozen=True)
+class Platform:
+    """What the arm rides, as the planner moves it: a base of ``base_radius`` and
+    ``base_height`` with the arm's mount ``arm_mount_forward`` ahead of its centre at a lift
+    height in ``lift_range`` (``carry_lift`` while driving), and the speeds a trajectory
+    keeps. A fixed arm (``fixed_at``: the base pose x, y, yaw it stands at) is a base that
+    never moves under a lift of one height, its mount's; its speeds time no motion."""
+
+    base_radius: float
+    base_height: float
+    arm_mount_forward: float
+    lift_range: tuple[float, float]
+    carry_lift: float
+    lift_speed: float
+    lift_acceleration: float
+    base_speed: float
+    base_acceleration: float
+    base_turn_rate: float
+    base_turn_acceleration: float
+    fixed_at: tuple[float, float, float] | None = None
+
+
 @dataclass(frozen=True)
 class Robot:
     """A robot file validated against its URDF: the spec, and what was read from the URDF
@@ -178,21 +205,33 @@ class Robot:
         return self.spec.acceleration_limits
 
     @property
-    def mobile_mount(self) -> MobileMount:
-        """The holonomic base and lift the arm rides on; a StalmError for a fixed arm, which
-        the planner cannot drive to its goals yet."""
+    def platform(self) -> Platform:
+        """What the arm rides, as the planner moves it (see :class:`Platform`)."""
         mount = self.spec.mount
-        if not isinstance(mount, MobileMount):
-            raise StalmError(
-                f"{self.source}: robot {self.name!r} is fixed at a pose (mount kind 'fixed'); "
-                "stalm plans for a robot on a mobile base (mount kind 'mobile')"
+        if isinstance(mount, MobileMount):
+            return Platform(
+                mount.base_radius,
+                mount.base_height,
+                mount.arm_mount_forward,
+                mount.lift_range,
+                mount.carry_lift,
+                mount.lift_speed,
+                mount.lift_acceleration,
+                mount.base_speed,
+                mount.base_acceleration,
+                mount.base_turn_rate,
+                mount.base_turn_acceleration,
             )
-        return mount
+        x, y, z = mount.xyz
+        radius, height = FIXED_PEDESTAL
+        return Platform(
+            radius, height, 0.0, (z, z), z, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, (x, y, mount.yaw)
+        )
 
     @property
     def carry_conf(self) -> tuple[float, ...]:
         """The lift height and arm joints while driving."""
-        return (self.mobile_mount.carry_lift, *self.spec.carry)
+        return (self.platform.carry_lift, *self.spec.carry)
 
     @property
     def gripper(self) -> GripperSpec:

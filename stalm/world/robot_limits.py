@@ -19,6 +19,7 @@ from pathlib import Path
 import pybullet_data
 
 from stalm.errors import StalmError
+from stalm.world.robot_description import Robot
 
 ARM_URDF = "franka_panda/panda.urdf"
 """The arm's URDF, inside ``pybullet_data``: the file the scene loads."""
@@ -132,3 +133,24 @@ def panda_limits() -> RobotLimits:
     )
     digest = hashlib.sha256(path.read_bytes()).hexdigest()
     return RobotLimits(BaseLimits(), arm, ARM_URDF, digest)
+
+
+def limits_of(robot: Robot) -> RobotLimits:
+    """The limits of ``robot``: :func:`panda_limits` for the built-in Panda (its exports stay
+    as they were), else its robot file's (velocities from the URDF unless the file gives
+    them, the file's accelerations, its mount's lift and base)."""
+    if robot.name == "panda" and robot.urdf_path == Path(pybullet_data.getDataPath()) / ARM_URDF:
+        return panda_limits()
+    mount = robot.platform
+    arm = JointLimits(
+        (LIFT_JOINT_NAME, *(joint.name for joint in robot.arm_joints)),
+        (mount.lift_speed, *robot.velocity_limits),
+        (mount.lift_acceleration, *robot.acceleration_limits),
+    )
+    base = BaseLimits(
+        mount.base_speed,
+        mount.base_acceleration,
+        mount.base_turn_rate,
+        mount.base_turn_acceleration,
+    )
+    return RobotLimits(base, arm, str(robot.urdf_path), robot.urdf_sha256)

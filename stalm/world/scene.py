@@ -24,9 +24,11 @@ from collections.abc import Callable, Iterable, Sequence
 
 import pybullet as p
 
+from stalm.errors import StalmError
 from stalm.geometry.transforms import Pose3, quat_yaw, yaw_quat
 from stalm.world import robot as robot_model
 from stalm.world.robot_loader import robot_named
+from stalm.world.robot_stance import fixed_base_mismatch
 from stalm.world.scene_build import build_bodies
 from stalm.world.spec import ProblemSpec
 from stalm.world.state import Grasp, ObjectPose, RobotConf, State
@@ -61,6 +63,9 @@ class Sim:
         self.problem = problem
         self.robot = robot_named(problem.robot.robot)
         """The robot the problem names, as its robot file describes it."""
+        why = fixed_base_mismatch(problem, self.robot)
+        if why is not None:
+            raise StalmError(why)
         self.client = p.connect(p.DIRECT)
         try:
             self.bodies = build_bodies(self.client, problem, self.robot, stop)
@@ -74,7 +79,7 @@ class Sim:
         """The grasp point's world pose in the arm's current configuration, once asked for."""
         carry = self.robot.carry_conf
         self._robot = RobotConf.make((0.0, 0.0, 0.0), carry[0], carry[1:])
-        self._mount_forward = self.robot.mobile_mount.arm_mount_forward
+        self._mount_forward = self.robot.platform.arm_mount_forward
         self._arm_joints = list(self.bodies.joints.arm)
         self._static_ids = frozenset(self.bodies.walls.values()) | frozenset(
             self.bodies.regions.values()

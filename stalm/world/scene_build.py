@@ -287,7 +287,7 @@ def _mesh_shapes(client: int, obj: ObjectSpec) -> tuple[int, int]:
 
 def _build_robot(client: int, bodies: Bodies, robot: Robot) -> None:
     c = client
-    mount = robot.mobile_mount
+    mount = robot.platform
     col = p.createCollisionShape(
         p.GEOM_CYLINDER,
         radius=mount.base_radius,

@@ -30,6 +30,7 @@ from stalm.errors import StalmError
 from stalm.geometry.directions import DIRECTIONS
 from stalm.geometry.footprints import planar_footprints_overlap, rotated_half_extent
 from stalm.world.goal_consistency import goal_contradiction
+from stalm.world.mesh_files import PYBULLET_DATA_PREFIX
 from stalm.world.object_spec import (
     GRILL_HANDLE_REACH,
     MESH_BASE_CONTEXT,
@@ -139,7 +140,7 @@ class RobotSpec(SpecModel):
             path = Path(self.file).expanduser()
             if not path.is_absolute() and base is not None:
                 path = Path(base) / path
-            self._resolved = str(path)
+            self._resolved = str(path.resolve())  # the robot loads later, maybe elsewhere
         return self
 
     @model_serializer(mode="wrap")
@@ -183,6 +184,7 @@ class ProblemSpec(SpecModel):
     robot: RobotSpec
     goal: tuple[GoalSpec, ...] = Field(min_length=1)
     optimal_length: int | None = None
+    _files_folder: Path | None = PrivateAttr(default=None)
 
     @model_validator(mode="before")
     @classmethod
@@ -260,6 +262,30 @@ class ProblemSpec(SpecModel):
         if contradiction is not None:
             raise ValueError(contradiction)
         return self
+
+    @model_validator(mode="after")
+    def _remember_files_folder(self, info: ValidationInfo) -> ProblemSpec:
+        """Keep the folder relative file paths were resolved against, for a record of the
+        problem to say (a relative path in its embedded copy means nothing elsewhere)."""
+        if self._names_relative_files():
+            context = info.context if isinstance(info.context, dict) else {}
+            base = context.get(MESH_BASE_CONTEXT)
+            self._files_folder = Path(base if base is not None else ".").resolve()
+        return self
+
+    def _names_relative_files(self) -> bool:
+        files = [obj.mesh for obj in self.objects if obj.mesh is not None]
+        files = [name for name in files if not name.startswith(PYBULLET_DATA_PREFIX)]
+        if self.robot.file is not None and Path(self.robot.file).suffix in (".yaml", ".yml"):
+            files.append(self.robot.file)  # a path, not a built-in robot's name
+        return any(not Path(name).expanduser().is_absolute() for name in files)
+
+    @property
+    def files_folder(self) -> Path | None:
+        """The folder (absolute) the problem's relative file paths (its robot file, its
+        meshes) resolve against: the problem file's, or the working folder for data parsed
+        without one; None if it names no file by a relative path."""
+        return self._files_folder
 
     def _check_floor(self) -> None:
         """The robot's start and every standing pose lie on the floor."""

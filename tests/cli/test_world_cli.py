@@ -36,8 +36,9 @@ def test_problems_lists_every_shipped_problem(monkeypatch, capsys) -> None:
         "P4",
         "P5",
         "P6",
+        "TABLE1",
     ]
-    assert [r["placements"] for r in rows] == [19, 18, 10, 23, 31, 23, 50, 27, 24, 27]
+    assert [r["placements"] for r in rows] == [19, 18, 10, 23, 31, 23, 50, 27, 24, 27, 19]
     assert run_cli(monkeypatch, "problems") == 0
     assert "P5" in capsys.readouterr().out
 

@@ -27,16 +27,23 @@ class ReplayedSolve:
 
 
 def solve_and_replay(
-    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, name: str, seed: int = 0
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+    name: str,
+    seed: int = 0,
+    robot: str | None = None,
 ) -> ReplayedSolve:
-    """``stalm solve NAME --seed SEED`` with its defaults; it must solve, and its record's
-    plan must replay to the goal."""
-    result = tmp_path / f"{name.lower()}-{seed}.json"
-    code = run_cli(monkeypatch, "solve", name, "--seed", str(seed), "--json", str(result), "-q")
+    """``stalm solve NAME --seed SEED [--robot ROBOT]`` with its defaults; it must solve, and
+    its record's plan must replay to the goal."""
+    result = tmp_path / f"{name.lower()}-{robot}-{seed}.json"
+    extra = ("--robot", robot) if robot is not None else ()
+    code = run_cli(
+        monkeypatch, "solve", name, "--seed", str(seed), "--json", str(result), "-q", *extra
+    )
     assert code == 0
     record = json.loads(result.read_text())
     assert record["success"] is True, record["termination"]
-    problem = load_problem(name)
+    problem = load_problem(name) if robot is None else load_problem(name).with_robot(robot)
     replay = replay_result_json(problem, record)
     assert replay.reached_goal, replay.reason
     return ReplayedSolve(problem, replay, tuple(str(action) for action in replay.actions))

@@ -6,6 +6,7 @@ physics check's mass and centre of mass, and the pictures drawing the mesh's tri
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from pathlib import Path
 
@@ -24,6 +25,7 @@ from stalm.world.object_spec import ObjectSpec
 from stalm.world.physics_check import MESH_DENSITY_KG_M3, centre_of_mass, object_mass
 from stalm.world.problem import load_problem
 from stalm.world.problem_file import load_problem_file
+from stalm.world.problem_record import PROBLEM_FOLDER_FIELD, problem_fields, record_problem
 from stalm.world.scene import Sim
 
 MESH1 = Path(__file__).resolve().parents[2] / "stalm" / "problems" / "mesh1.yaml"
@@ -105,6 +107,26 @@ def test_a_relative_mesh_is_found_beside_the_problem_file_from_any_folder(
     # the L's bounding box, halved, centred on the object's frame with its bottom at z 0
     assert obj.half_extents == pytest.approx((0.05, 0.035, 0.015))
     assert obj.outline.points.min(axis=0) == pytest.approx((-0.05, -0.035, 0.0))
+
+
+def test_a_relative_mesh_stays_found_for_another_robot_and_in_a_record(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--robot`` and a result record re-validate the problem away from its file: its
+    relative mesh path still starts from the problem file's folder."""
+    _write_l_shape(tmp_path / "l.obj", groups=True)
+    path = _problem_with(tmp_path, mesh="l.obj", scale=0.5, at=[0.05, 0.0])
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    problem = load_problem(path)
+    mesh = (tmp_path / "l.obj").resolve()
+    assert problem.with_robot("xarm6").spec.object("toy").outline.path.resolve() == mesh
+    record = json.loads(json.dumps(problem_fields(problem)))
+    assert record[PROBLEM_FOLDER_FIELD] == str(tmp_path.resolve())
+    reopened = record_problem(record, "mesh.json")
+    assert reopened.spec.object("toy").outline.path.resolve() == mesh
+    assert reopened.content_hash == problem.content_hash
 
 
 def test_a_mesh_rests_on_its_region_inside_its_footprint() -> None:

@@ -1,4 +1,4 @@
-"""Robot files: the three shipped robots load and the Panda's equals today's constants; a file
+"""Robot files: the shipped robots load and the Panda's equals today's constants; a file
 that does not fit its URDF (a missing link, a chain that is no 6- or 7-joint arm, a carry
 configuration outside the limits, a missing URDF, a bad mount) is one error naming the field;
 reach and the carry footprint are derived from the URDF."""
@@ -36,10 +36,24 @@ def _write(tmp_path: Path, data: dict[str, Any], name: str = "robot.yaml") -> st
     return str(path)
 
 
-def test_the_four_shipped_robots_load_with_their_chains() -> None:
-    assert builtin_robots() == ("iiwa", "iiwa_gripper", "panda", "xarm6")
+def test_the_shipped_robots_load_with_their_chains() -> None:
+    assert builtin_robots() == (
+        "iiwa",
+        "iiwa_gripper",
+        "panda",
+        "panda_table",
+        "xarm6",
+        "xarm6_table",
+    )
     joints = {name: len(load_robot(name).arm_joints) for name in builtin_robots()}
-    assert joints == {"iiwa": 7, "iiwa_gripper": 7, "panda": 7, "xarm6": 6}
+    assert joints == {
+        "iiwa": 7,
+        "iiwa_gripper": 7,
+        "panda": 7,
+        "panda_table": 7,
+        "xarm6": 6,
+        "xarm6_table": 6,
+    }
     xarm = load_robot("xarm6")
     assert [joint.name for joint in xarm.arm_joints] == [f"joint{i}" for i in range(1, 7)]
     assert xarm.chain[-1].kind == "fixed" and xarm.chain[-1].child_link == "xarm_gripper_base_link"
@@ -193,7 +207,7 @@ def test_the_carry_footprint_is_where_the_simulator_puts_the_arm() -> None:
     # at the mount: the iiwa's link 0 has its inertial origin 0.1 m behind its link frame, so
     # the arm stands 0.1 m ahead of where its link frame alone would put it
     robot = load_robot("iiwa_gripper")
-    mount = robot.mobile_mount
+    mount = robot.platform
     with urdf_body(robot.urdf_path) as loaded:
         for name, value in robot.gripper.finger_joints.items():
             index = next(

@@ -24,7 +24,7 @@ from tests.cli_runner import run_cli
 
 PACKAGE = Path(stalm.__file__).resolve().parent
 ROOT = PACKAGE.parent
-NAMES = ("BOX1", "MESH1", "MOVE2", "MUG1", "P1", "P2", "P3", "P4", "P5", "P6")
+NAMES = ("BOX1", "MESH1", "MOVE2", "MUG1", "P1", "P2", "P3", "P4", "P5", "P6", "TABLE1")
 
 
 @pytest.fixture(autouse=True)

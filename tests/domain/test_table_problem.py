@@ -1,0 +1,40 @@
+"""TABLE1, the tabletop problem: an arm fixed at a table's edge works a table and two shelves
+from its one pose. What its description claims is checked where solves meet it, for both
+fixed arms: the base never moves, the red can is hidden behind the blue one (the blue can is
+moved before the red one is picked), and the plan passes the physics check."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from stalm.errors import StalmError
+from stalm.world.problem import load_problem
+from tests.domain.shipped_solves import assert_physics_passes, solve_and_replay
+
+
+@pytest.mark.parametrize("robot", ["panda_table", "xarm6_table"])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_fixed_arm_solves_table1_from_its_one_pose(
+    monkeypatch, tmp_path: Path, robot: str, seed: int
+) -> None:
+    solve = solve_and_replay(monkeypatch, tmp_path, "TABLE1", seed, robot)
+    fixed = solve.problem.robot.platform.fixed_at
+    assert fixed == (0.0, 0.0, 0.0)
+    for action in solve.replay.actions:
+        assert set(action.params.base_path.corners) == {fixed}  # the base never moves
+    words = solve.words
+    assert words.index("pick(blue_can)") < words.index("pick(red_can)")
+    assert "place(red_can, on, shelf_left)" in words
+    assert_physics_passes(solve)
+
+
+def test_a_fixed_arm_is_refused_where_it_would_have_to_move() -> None:
+    with pytest.raises(StalmError, match=r"fixed at \[0.0, 0.0, 0.0\].*P2's robot.base"):
+        load_problem("P2").with_robot("xarm6_table")
+    with pytest.raises(StalmError, match="'iiwa' has no gripper"):
+        load_problem("TABLE1").with_robot("iiwa")
+    table = load_problem("TABLE1")
+    assert table.robot.name == "panda_table" and table.spec.robot.file == "panda_table"
+    assert table.robot.platform.lift_range == (0.8, 0.8)
