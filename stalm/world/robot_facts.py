@@ -58,7 +58,10 @@ def robot_facts(robot: Robot, rng: np.random.Generator, samples: int = REACH_SAM
         radius = None
         if isinstance(mount, MobileMount):
             loaded.set_joints(joints, robot.spec.carry)
-            base = np.linalg.inv(loaded.link_frame(loaded.links[robot.spec.base_link]))
+            # the simulator puts the root's inertial frame (PyBullet's body pose) at the
+            # mount, not the base link's frame: a root whose inertial origin is off its
+            # frame (the iiwa's link 0) stands that far from where its frame would
+            base = np.linalg.inv(loaded.link_frame(-1) @ loaded.inertial_offset(-1))
             farthest = 0.0
             for name, parts in body_convex_parts(loaded).items():
                 frame = base @ loaded.link_frame(loaded.links[name])

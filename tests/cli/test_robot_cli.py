@@ -24,12 +24,13 @@ from tests.robot_files import write_test_arm
 def test_robot_list_names_the_shipped_robots_with_their_sphere_counts(monkeypatch, capsys) -> None:
     assert run_cli(monkeypatch, "robot", "list") == 0
     lines = capsys.readouterr().out.splitlines()
-    names = ["iiwa", "panda", "panda_table", "xarm6", "xarm6_table"]
+    names = ["iiwa", "iiwa_gripper", "panda", "panda_table", "xarm6", "xarm6_table"]
     assert [line.split()[0] for line in lines] == names
-    assert "7 joints  fixed   gripper" in lines[2] and "124 spheres" in lines[2]  # panda_table
-    lines = [lines[0], lines[1], lines[3]]  # iiwa, panda, xarm6
-    assert "6 joints  mobile  gripper" in lines[2] and "94 spheres" in lines[2]
-    assert "7 joints  mobile  gripper" in lines[1] and "124 spheres" in lines[1]
+    assert "7 joints  mobile  gripper" in lines[1] and "155 spheres" in lines[1]  # iiwa_gripper
+    assert "7 joints  mobile  gripper" in lines[2] and "124 spheres" in lines[2]  # panda
+    assert "7 joints  fixed   gripper" in lines[3] and "124 spheres" in lines[3]  # panda_table
+    assert "6 joints  mobile  gripper" in lines[4] and "94 spheres" in lines[4]  # xarm6
+    assert len({line.index(" joints") for line in lines}) == 1  # a column for the longest name
 
 
 def test_robot_check_prints_chain_limits_reach_spheres_and_the_check(monkeypatch, capsys) -> None:
@@ -58,6 +59,17 @@ def test_the_iiwa_check_says_it_has_no_gripper(monkeypatch, capsys) -> None:
     out = capsys.readouterr().out
     assert "gripper   none" in out and "chain     lbr_iiwa_link_0 -> lbr_iiwa_link_7: 7" in out
     assert "  velocity_limits: KUKA's LBR iiwa 14 R820 data sheet" in out
+
+
+def test_the_iiwa_with_a_gripper_folds_inside_the_base(monkeypatch, capsys) -> None:
+    assert run_cli(monkeypatch, "robot", "check", "iiwa_gripper", "--samples", "200") == 0
+    out = capsys.readouterr().out
+    assert "chain     lbr_iiwa_link_0 -> wsg_50_body: 7 revolute joints (+1 fixed)" in out
+    assert "carry pose reaches 0.273 m from the base centre: inside the 0.3 m base" in out
+    assert "gripper   opening 0.0850 m (fingers' collision geometry 0.0850 m apart" in out
+    assert "spheres   155 (shipped, delta 0.02 m)" in out
+    check = next(line for line in out.splitlines() if line.startswith("check"))
+    assert check.endswith(": pass")
 
 
 def test_a_failing_sphere_check_exits_1(monkeypatch, capsys, tmp_path: Path) -> None:

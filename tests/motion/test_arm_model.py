@@ -60,7 +60,7 @@ def test_the_panda_on_its_compiled_code_is_the_panda_read_from_its_urdf() -> Non
     assert compiled.lows.tolist() == reference.lows.tolist()
 
 
-@pytest.mark.parametrize("robot", ["panda", "xarm6"])
+@pytest.mark.parametrize("robot", ["panda", "xarm6", "iiwa_gripper"])
 def test_step_frames_are_the_frames_of_each_step(robot: str) -> None:
     problem = load_problem("P2") if robot == "panda" else load_problem("P2").with_robot(robot)
     arm = arm_of_problem(problem)
@@ -173,7 +173,9 @@ def test_a_problem_for_another_robot_names_it_and_hashes_apart(xarm_p2: Problem)
 
 
 def test_a_robot_that_cannot_plan_is_named(tmp_path: Path) -> None:
-    with pytest.raises(StalmError, match=r"no robot 'nope'.*iiwa, panda, panda_table, xarm6"):
+    with pytest.raises(
+        StalmError, match=r"no robot 'nope'.*iiwa, iiwa_gripper, panda, panda_table, xarm6"
+    ):
         load_problem("P2").with_robot("nope")
     with pytest.raises(StalmError, match="'iiwa' has no gripper"):
         load_problem("P2").with_robot("iiwa")

@@ -71,7 +71,7 @@ def _ray_hits_outside_spheres(robot: Robot, spheres: RobotSpheres, rays: int = 3
     return worst
 
 
-@pytest.mark.parametrize("name", ["panda", "xarm6", "iiwa"])
+@pytest.mark.parametrize("name", ["panda", "xarm6", "iiwa", "iiwa_gripper"])
 def test_each_shipped_sphere_set_is_used_as_shipped_and_passes_the_check(name: str) -> None:
     robot = load_robot(name)
     spheres, origin = robot_spheres(robot)

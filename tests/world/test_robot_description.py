@@ -10,15 +10,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pybullet as p
 import pytest
 import yaml
 
 from stalm.errors import StalmError
 from stalm.world import robot as panda_robot
 from stalm.world import robot_limits
+from stalm.world.link_shapes import body_convex_parts, transformed
 from stalm.world.robot_description import FixedMount, MobileMount
 from stalm.world.robot_facts import robot_facts
 from stalm.world.robot_loader import builtin_robots, load_robot, robot_file
+from stalm.world.robot_urdf import urdf_body
 from tests.robot_files import write_test_arm
 
 
@@ -34,9 +37,23 @@ def _write(tmp_path: Path, data: dict[str, Any], name: str = "robot.yaml") -> st
 
 
 def test_the_shipped_robots_load_with_their_chains() -> None:
-    assert builtin_robots() == ("iiwa", "panda", "panda_table", "xarm6", "xarm6_table")
+    assert builtin_robots() == (
+        "iiwa",
+        "iiwa_gripper",
+        "panda",
+        "panda_table",
+        "xarm6",
+        "xarm6_table",
+    )
     joints = {name: len(load_robot(name).arm_joints) for name in builtin_robots()}
-    assert joints == {"iiwa": 7, "panda": 7, "panda_table": 7, "xarm6": 6, "xarm6_table": 6}
+    assert joints == {
+        "iiwa": 7,
+        "iiwa_gripper": 7,
+        "panda": 7,
+        "panda_table": 7,
+        "xarm6": 6,
+        "xarm6_table": 6,
+    }
     xarm = load_robot("xarm6")
     assert [joint.name for joint in xarm.arm_joints] == [f"joint{i}" for i in range(1, 7)]
     assert xarm.chain[-1].kind == "fixed" and xarm.chain[-1].child_link == "xarm_gripper_base_link"
@@ -47,6 +64,15 @@ def test_the_shipped_robots_load_with_their_chains() -> None:
     # the file's data-sheet velocities replace the URDF's 10 rad/s placeholders
     assert iiwa.velocity_limits[0] == pytest.approx(math.radians(85), abs=1e-4)
     assert iiwa.chain[0].velocity == 10.0
+    gripped = load_robot("iiwa_gripper")
+    # the same arm as the iiwa's (its URDF's joints and the file's data-sheet velocities),
+    # a gripper on its flange, riding the mobile base
+    assert [j.name for j in gripped.arm_joints] == [j.name for j in iiwa.arm_joints]
+    assert gripped.joint_limits == iiwa.joint_limits
+    assert gripped.velocity_limits == iiwa.velocity_limits
+    assert gripped.chain[-1].child_link == "wsg_50_body" and gripped.chain[-1].kind == "fixed"
+    assert isinstance(gripped.spec.mount, MobileMount)
+    assert gripped.gripper.finger_links == ("wsg_50_finger_left", "wsg_50_finger_right")
 
 
 def test_the_panda_file_describes_exactly_todays_constants() -> None:
@@ -174,6 +200,39 @@ def test_reach_and_the_carry_footprint_are_derived() -> None:
     assert 0.75 < xarm.reach < 0.95
     again = robot_facts(load_robot("xarm6"), np.random.default_rng(0), samples=500)
     assert again == xarm
+
+
+def test_the_carry_footprint_is_where_the_simulator_puts_the_arm() -> None:
+    # PyBullet places a URDF's root by its inertial frame, and the simulator puts that frame
+    # at the mount: the iiwa's link 0 has its inertial origin 0.1 m behind its link frame, so
+    # the arm stands 0.1 m ahead of where its link frame alone would put it
+    robot = load_robot("iiwa_gripper")
+    mount = robot.platform
+    with urdf_body(robot.urdf_path) as loaded:
+        for name, value in robot.gripper.finger_joints.items():
+            index = next(
+                i for i in range(len(loaded.links) - 1) if loaded.joint_info(i)[1] == name.encode()
+            )
+            p.resetJointState(loaded.body, index, value, physicsClientId=loaded.client)
+        loaded.set_joints(robot.arm_joints, robot.spec.carry)
+        p.resetBasePositionAndOrientation(
+            loaded.body,
+            [mount.arm_mount_forward, 0, mount.carry_lift],
+            [0, 0, 0, 1],
+            physicsClientId=loaded.client,
+        )
+        farthest = max(
+            float(
+                np.linalg.norm(
+                    transformed(loaded.link_frame(loaded.links[name]), points)[:, :2], axis=1
+                ).max()
+            )
+            for name, parts in body_convex_parts(loaded).items()
+            for points in parts
+        )
+    facts = robot_facts(robot, np.random.default_rng(0), samples=10)
+    assert facts.carry_radius == pytest.approx(farthest, abs=1e-6)
+    assert facts.carry_fits is True  # folded over the base, inside its 0.3 m disc
 
 
 def _edit(path: Path, old: str, new: str) -> None:
