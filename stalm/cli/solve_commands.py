@@ -53,7 +53,8 @@ VERBOSE_HELP = (
 
 ROBOT_HELP = (
     "The robot to plan for instead of the problem's: a built-in robot (`stalm robot list`) "
-    "or a robot file. It rides the problem's mobile base; the result records it."
+    "or a robot file (a fixed one works a problem whose standing poses are all its own "
+    "pose, as TABLE1's). The result records it."
 )
 
 commands = typer.Typer()

@@ -26,6 +26,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from stalm.errors import StalmError
 from stalm.geometry.transforms import Pose3, quat_from_matrix
 from stalm.motion import ik, panda
 from stalm.motion.arm_kinematics import ArmKinematics
@@ -34,6 +35,7 @@ from stalm.motion.ik_reference import PyBulletArm, pybullet_refine
 from stalm.motion.robot_chain import robot_chain
 from stalm.world import robot as robot_model
 from stalm.world.problem import load_problem
+from stalm.world.robot_description import is_builtin_panda
 from stalm.world.robot_loader import load_robot
 from stalm.world.scene import Sim
 
@@ -83,6 +85,11 @@ def _solve_all(
 def bench_problem(name: str, count: int = 200, seed: int = 0) -> dict[str, object]:
     """One problem's row: seconds per IK attempt and targets reached, by both solvers."""
     problem = load_problem(name)
+    if not is_builtin_panda(problem.robot):
+        raise StalmError(
+            f"{problem.name} names the robot {problem.robot.name!r}: a problem's IK is "
+            f"benchmarked for the Panda only; use --robot {problem.robot.name} (the arm alone)"
+        )
     rng = np.random.default_rng(seed)
     with Sim(problem.spec) as sim:
         targets = reachable_targets(sim, count, rng)

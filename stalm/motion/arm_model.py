@@ -37,7 +37,7 @@ from stalm.motion.panda_spheres import SphereModel, panda_spheres
 from stalm.motion.robot_chain import robot_chain
 from stalm.motion.sphere_fit_store import robot_spheres
 from stalm.world.robot import ArmMount
-from stalm.world.robot_description import Robot
+from stalm.world.robot_description import Robot, is_builtin_panda
 from stalm.world.robot_loader import robot_named
 from stalm.world.robot_urdf import urdf_body
 from stalm.world.scene import Sim
@@ -356,7 +356,7 @@ def arm_model(robot_source: str) -> ArmModel:
     """The arm model of the robot a problem names (by :func:`robot_named`'s key), built once
     per process: the Panda on its compiled code, any other robot on the generic one."""
     robot = robot_named(robot_source)
-    if robot.name == "panda" and robot.urdf_path == panda.URDF:
+    if is_builtin_panda(robot):
         return PandaArm(robot, panda_spheres())
     return urdf_arm(robot)
 

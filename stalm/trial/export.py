@@ -29,6 +29,7 @@ from stalm.motion.timing import LIMIT_SCALE, MotionSamples, TimedMotion
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
 from stalm.world.robot import GRASP_FRAME, MOUNT_DESCRIPTION
+from stalm.world.robot_description import FixedMount, Robot, is_builtin_panda
 from stalm.world.robot_limits import RobotLimits, limits_of
 
 EXPORT_FORMAT = "stalm-trajectories/1"
@@ -107,9 +108,8 @@ def _trajectory(
 def trajectories_json(problem: Problem, schedule: PlanSchedule, rate: float) -> JsonObject:
     """The export of ``schedule`` (see the module docstring), sampled at ``rate``."""
     limits = schedule.limits
-    robot = problem.robot
-    # the Panda's grasp frame is a URDF link; another robot's may be its tool link moved
-    grasp_frame = GRASP_FRAME if robot.name == "panda" else robot.spec.tool_link
+    robot_entry = _robot_entry(problem.robot, limits)
+    grasp_frame = robot_entry["grasp_frame"]
     trajectories = []
     for index, timing in enumerate(schedule.actions):
         step = str(timing.action)
@@ -141,12 +141,7 @@ def trajectories_json(problem: Problem, schedule: PlanSchedule, rate: float) -> 
         "format": EXPORT_FORMAT,
         "problem": problem.name,
         PROBLEM_HASH_FIELD: problem.content_hash,
-        "robot": {
-            "urdf": limits.urdf,
-            "urdf_sha256": limits.urdf_sha256,
-            "mount": MOUNT_DESCRIPTION,
-            "grasp_frame": grasp_frame,
-        },
+        "robot": robot_entry,
         "limits": {
             "scale": LIMIT_SCALE,
             "base": {
@@ -166,6 +161,32 @@ def trajectories_json(problem: Problem, schedule: PlanSchedule, rate: float) -> 
         "trajectories": trajectories,
         "events": events,
     }
+
+
+def _robot_entry(robot: Robot, limits: RobotLimits) -> JsonObject:
+    """What the export says of the robot: its URDF, its mount and the frame grasps are in
+    (another robot's: its tool link moved by ``tool_offset``, both stated)."""
+    entry: JsonObject = {
+        "urdf": limits.urdf,
+        "urdf_sha256": limits.urdf_sha256,
+        "mount": MOUNT_DESCRIPTION,
+        "grasp_frame": GRASP_FRAME,
+    }
+    if is_builtin_panda(robot):
+        return entry
+    mount = robot.spec.mount
+    if isinstance(mount, FixedMount):
+        x, y, z = mount.xyz
+        entry["mount"] = (
+            f"fixed at ({x:g}, {y:g}, {z:g}) m, yaw {mount.yaw:g} rad: the base never moves "
+            "and the 'lift' joint stays at the mount's height"
+        )
+    offset = robot.spec.tool_offset
+    entry.update(
+        grasp_frame=robot.spec.tool_link,
+        tool_offset={"xyz": list(offset.xyz), "rpy": list(offset.rpy)},
+    )
+    return entry
 
 
 def _over(values: np.ndarray, limit: float | np.ndarray, tolerance: float) -> bool:

@@ -38,6 +38,7 @@ from stalm.trial.step_log import DECISIONS
 from stalm.viz.animate import plan_motion_places
 from stalm.world.mesh_files import read_obj
 from stalm.world.problem import Problem
+from stalm.world.robot_description import is_builtin_panda
 from stalm.world.robot_limits import limits_of
 from stalm.world.scene import Sim
 from stalm.world.state import State
@@ -217,13 +218,22 @@ def _frame(sim: Sim, moving: list[tuple[str, str, int]]) -> tuple[list[float], l
         poses += _rounded(position) + _rounded(orientation)
     arm = sim.bodies.arm
     mount, _ = p.getBasePositionAndOrientation(arm, physicsClientId=c)
-    links = [
-        p.getLinkState(arm, link, computeForwardKinematics=True, physicsClientId=c)[4]
-        for link in (*ARM_LINKS, *FINGER_LINKS)
-    ]
-    figure: list[Any] = [_rounded(mount)] + [_rounded(x) for x in links[: len(ARM_LINKS)]]
-    figure.append(None)
-    figure += [_rounded(x) for x in links[len(ARM_LINKS) :]]
+
+    def at(link: int) -> tuple[float, ...]:
+        return tuple(p.getLinkState(arm, link, computeForwardKinematics=True, physicsClientId=c)[4])
+
+    joints = sim.bodies.joints
+    if is_builtin_panda(sim.robot):
+        figure: list[Any] = [_rounded(mount)] + [_rounded(at(link)) for link in ARM_LINKS]
+        figure.append(None)
+        figure += [_rounded(at(link)) for link in FINGER_LINKS]
+        return poses, figure
+    # any other arm: each joint's link, the grasp point, then the bar across the fingers
+    grasp = sim.gripper_pose()[0]
+    figure = [_rounded(mount), *(_rounded(at(link)) for link in joints.arm), _rounded(grasp), None]
+    if len(joints.finger_links) == 2:
+        left, right = joints.finger_links
+        figure += [_rounded(at(left)), _rounded(grasp), _rounded(at(right))]
     return poses, figure
 
 

@@ -78,8 +78,14 @@ class Problem:
     @cached_property
     def content_hash(self) -> str:
         """A digest of the validated problem (not of its file: comments, layout and key order
-        do not change it). Results record it so a replay can tell it has the same problem."""
-        payload = json.dumps(self.spec.model_dump(mode="json"), sort_keys=True)
+        do not change it) and, when it names a robot file, of that file and the URDF's shapes.
+        Results record it so a replay can tell it has the same problem."""
+        data = self.spec.model_dump(mode="json")
+        if self.spec.robot.file is not None:  # what the robot is, not only where its file was
+            robot = self.robot
+            robot_file = hashlib.sha256(Path(robot.source).read_bytes()).hexdigest()
+            data["robot_content"] = [robot_file, robot.urdf_sha256]
+        payload = json.dumps(data, sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
     @cached_property
@@ -170,15 +176,26 @@ def no_problems_error() -> StalmError:
     )
 
 
+def _with_its_robot(problem: Problem) -> Problem:
+    """``problem`` once the robot its ``robot.file`` names has loaded: a StalmError naming the
+    problem file and the field if it does not (before any scene is built)."""
+    if problem.spec.robot.file is not None:
+        try:
+            _ = problem.robot
+        except StalmError as error:
+            raise StalmError(f"{problem.source}: robot.file: {error}") from None
+    return problem
+
+
 def load_problem(name_or_path: str | Path) -> Problem:
     """Load a problem by name (``P5``) or by the path of a YAML file."""
     path = Path(name_or_path)
     if path.suffix in (".yaml", ".yml") or path.exists():
-        return Problem(load_problem_file(path), str(path))
+        return _with_its_robot(Problem(load_problem_file(path), str(path)))
     wanted = str(name_or_path).lower()
     for candidate in available_problems():
         if candidate.stem.lower() == wanted:
-            return Problem(load_problem_file(candidate), str(candidate))
+            return _with_its_robot(Problem(load_problem_file(candidate), str(candidate)))
     names = ", ".join(c.stem.upper() for c in available_problems()) or "none"
     raise StalmError(
         f"unknown problem '{name_or_path}': no file {wanted}.yaml in {_folders_text()} "

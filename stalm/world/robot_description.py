@@ -6,7 +6,7 @@ inside PyBullet's data), the arm's base and tool links (the tool link, moved by 
 holonomic base with a lift, or fixed at a pose in the world), the carry configuration and the
 limits a trajectory must keep. Joint and velocity limits are read from the URDF unless the
 file gives them (a URDF's numbers are sometimes placeholders); acceleration limits are given,
-since no URDF states them. Three robots ship as package data (:data:`ROBOTS_DIR`) and load by
+since no URDF states them. The shipped robots are package data (:data:`ROBOTS_DIR`) and load by
 name; any other loads by path.
 
 This module checks what the file alone can say (types, ranges, an ordered lift range); what
@@ -239,6 +239,12 @@ class Robot:
         if self.spec.gripper is None:
             raise StalmError(f"{self.source}: robot {self.name!r} has no gripper: it cannot pick")
         return self.spec.gripper
+
+
+def is_builtin_panda(robot: Robot) -> bool:
+    """Is ``robot`` the shipped Panda's file (the one the compiled Panda code, its limits and
+    its recorded plans stand for), not another file that merely names itself ``panda``?"""
+    return Path(robot.source).resolve() == (ROBOTS_DIR / "panda.yaml").resolve()
 
 
 def resolve_urdf(urdf: str, robot_dir: Path) -> Path:

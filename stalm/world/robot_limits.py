@@ -19,7 +19,7 @@ from pathlib import Path
 import pybullet_data
 
 from stalm.errors import StalmError
-from stalm.world.robot_description import Robot
+from stalm.world.robot_description import Robot, is_builtin_panda
 
 ARM_URDF = "franka_panda/panda.urdf"
 """The arm's URDF, inside ``pybullet_data``: the file the scene loads."""
@@ -139,7 +139,7 @@ def limits_of(robot: Robot) -> RobotLimits:
     """The limits of ``robot``: :func:`panda_limits` for the built-in Panda (its exports stay
     as they were), else its robot file's (velocities from the URDF unless the file gives
     them, the file's accelerations, its mount's lift and base)."""
-    if robot.name == "panda" and robot.urdf_path == Path(pybullet_data.getDataPath()) / ARM_URDF:
+    if is_builtin_panda(robot):
         return panda_limits()
     mount = robot.platform
     arm = JointLimits(
@@ -153,4 +153,4 @@ def limits_of(robot: Robot) -> RobotLimits:
         mount.base_turn_rate,
         mount.base_turn_acceleration,
     )
-    return RobotLimits(base, arm, str(robot.urdf_path), robot.urdf_sha256)
+    return RobotLimits(base, arm, robot.spec.urdf, robot.urdf_sha256)

@@ -23,6 +23,11 @@ def fixed_base_mismatch(spec: ProblemSpec, robot: Robot) -> str | None:
         return None
     poses = [("robot.base", spec.robot.base)]
     poses += [(f"region {region.name!r}'s base_pose", region.base_pose) for region in spec.regions]
+    poses += [
+        (f"door {door.name!r}'s base_poses[{k}]", pose)
+        for door in spec.doors
+        for k, pose in enumerate(door.base_poses)
+    ]
     for what, pose in poses:
         if any(abs(a - b) > FIXED_POSE_TOLERANCE for a, b in zip(pose, fixed, strict=True)):
             return (

@@ -34,6 +34,8 @@ class ArmJoints:
     fingers: tuple[tuple[int, float], ...]
     grasp_link: int
     tool_offset: Pose3 | None
+    finger_links: tuple[int, ...] = ()
+    """The two links whose gap is the gripper's opening (none without a gripper)."""
 
     def grasp_pose(self, client: int, body: int) -> Pose3:
         """The grasp frame's world pose in ``body`` (the arm) as it stands now."""
@@ -47,10 +49,12 @@ class ArmJoints:
 
     @classmethod
     def of(cls, client: int, body: int, robot: Robot) -> ArmJoints:
-        names = {
-            p.getJointInfo(body, j, physicsClientId=client)[1].decode(): j
+        infos = [
+            p.getJointInfo(body, j, physicsClientId=client)
             for j in range(p.getNumJoints(body, physicsClientId=client))
-        }
+        ]
+        names = {info[1].decode(): j for j, info in enumerate(infos)}
+        links = {info[12].decode(): j for j, info in enumerate(infos)}
         gripper = robot.spec.gripper
         fingers = (
             ()
@@ -66,6 +70,7 @@ class ArmJoints:
             fingers,
             robot.chain[-1].index,
             tool,
+            () if gripper is None else tuple(links[name] for name in gripper.finger_links),
         )
 
 

@@ -75,6 +75,9 @@ def test_export_times_another_robots_plan_under_its_own_limits(monkeypatch, tmp_
     assert data["limits"]["arm"]["joint_names"] == ["lift", *(f"joint{i}" for i in range(1, 7))]
     assert data["limits"]["arm"]["velocity"] == [0.1, *xarm.velocity_limits]
     assert data["limits"]["arm"]["acceleration"] == [0.5, *xarm.acceleration_limits]
+    # grasps are in the tool link moved by the tool offset, both stated
     assert data["robot"]["grasp_frame"] == "xarm_gripper_base_link"
+    assert data["robot"]["tool_offset"] == {"xyz": [0.0, 0.0, 0.155], "rpy": [0.0, 0.0, 0.0]}
+    assert data["robot"]["urdf"] == "pybullet_data:xarm/xarm6_with_gripper.urdf"
     assert limit_violations(data, limits) == []
     assert run_cli(monkeypatch, "view", str(result), "-o", str(tmp_path / "page.html")) == 0

@@ -38,3 +38,54 @@ def test_a_fixed_arm_is_refused_where_it_would_have_to_move() -> None:
     table = load_problem("TABLE1")
     assert table.robot.name == "panda_table" and table.spec.robot.file == "panda_table"
     assert table.robot.platform.lift_range == (0.8, 0.8)
+
+
+def test_a_fixed_arm_with_a_door_to_drive_to_is_refused(tmp_path: Path) -> None:
+    import yaml
+
+    data = yaml.safe_load(Path(load_problem("TABLE1").source).read_text())
+    data["doors"] = [
+        {
+            "name": "cupboard",
+            "hinge": [1.2, -0.4],
+            "width": 0.8,
+            "height": 2.0,
+            "thickness": 0.05,
+            "closed_yaw": 1.570796,
+            "open_yaw": 0.0,
+            "handle_height": 1.05,
+            "base_poses": [[1.0, 0.5, 1.570796]],
+        }
+    ]
+    path = tmp_path / "table_door.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(StalmError, match=r"door 'cupboard''s base_poses\[0\]"):
+        load_problem(path).with_robot("xarm6_table")
+
+
+def test_a_problem_naming_a_missing_robot_says_so_when_it_loads(tmp_path: Path) -> None:
+    text = Path(load_problem("TABLE1").source).read_text()
+    path = tmp_path / "nobody.yaml"
+    path.write_text(text.replace("file: panda_table", "file: nobody"))
+    with pytest.raises(StalmError, match=r"nobody.yaml: robot.file: no robot 'nobody'"):
+        load_problem(path)
+
+
+def test_the_problem_hash_covers_the_robot_files_content(tmp_path: Path) -> None:
+    robots = tmp_path / "robots"
+    robots.mkdir()
+    shipped = Path(load_problem("TABLE1").robot.source)
+    text = Path(load_problem("TABLE1").source).read_text()
+    problem = tmp_path / "table.yaml"
+    problem.write_text(text.replace("file: panda_table", "file: robots/arm.yaml"))
+    (robots / "arm.yaml").write_text(shipped.read_text().replace("name: panda_table", "name: arm"))
+    before = load_problem(problem).content_hash
+    from stalm.world.robot_loader import robot_named
+
+    robot_named.cache_clear()
+    (robots / "arm.yaml").write_text(
+        shipped.read_text()
+        .replace("name: panda_table", "name: arm")
+        .replace("1.5, 0.785]", "1.4, 0.785]", 1)
+    )
+    assert load_problem(problem).content_hash != before

@@ -211,3 +211,21 @@ def test_stalm_solves_the_problem_and_the_replay_reaches_the_goal(
         monkeypatch.chdir(elsewhere)
         assert run_cli(monkeypatch, "replay", str(result)) == 0, seed
         assert "the goal is reached" in capsys.readouterr().out
+
+
+def test_the_page_draws_the_arm_of_boxes(
+    problem_file: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``stalm view`` draws any arm by its joints' links, grasp point and fingers (the
+    Panda's link numbers, which this arm does not have, broke it)."""
+    from stalm.viz.view_data import view_data
+
+    result, page = tmp_path / "reach1.json", tmp_path / "reach1.html"
+    args = ("solve", str(problem_file), "--seed", str(SOLVING_SEEDS[0]), "--json", str(result))
+    assert run_cli(monkeypatch, *args, "-q") == 0
+    assert run_cli(monkeypatch, "view", str(result), "-o", str(page)) == 0
+    assert page.read_text().startswith("<!DOCTYPE html>")
+    data = view_data(load_problem(problem_file), json.loads(result.read_text()))
+    arm = data["frames"]["arm"][0]
+    # the mount, six joints' links, the grasp point, a gap, the finger bar
+    assert len(arm) == 1 + 6 + 1 + 1 + 3 and arm[8] is None
