@@ -29,8 +29,8 @@ def no_arm_run(monkeypatch: pytest.MonkeyPatch) -> None:
     [
         (
             ["--robot", "ur5"],
-            "no robot 'ur5': give a robot file or one of iiwa, iiwa_gripper, panda, panda_table, "
-            "xarm6, xarm6_table",
+            "no robot 'ur5': give a robot file or one of iiwa, iiwa_gripper, iiwa_gripper_table, "
+            "panda, panda_table, xarm6, xarm6_table",
         ),
         (["--robot", "xarm6", "P2"], "--robot xarm6 is benchmarked fixed at the origin"),
         (["--robot", "iiwa", "--attempts", "0"], "--attempts must be at least 1, got 0"),

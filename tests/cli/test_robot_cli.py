@@ -24,12 +24,13 @@ from tests.robot_files import write_test_arm
 def test_robot_list_names_the_shipped_robots_with_their_sphere_counts(monkeypatch, capsys) -> None:
     assert run_cli(monkeypatch, "robot", "list") == 0
     lines = capsys.readouterr().out.splitlines()
-    names = ["iiwa", "iiwa_gripper", "panda", "panda_table", "xarm6", "xarm6_table"]
-    assert [line.split()[0] for line in lines] == names
+    names = ["iiwa", "iiwa_gripper", "iiwa_gripper_table", "panda", "panda_table", "xarm6"]
+    assert [line.split()[0] for line in lines] == [*names, "xarm6_table"]
     assert "7 joints  mobile  gripper" in lines[1] and "155 spheres" in lines[1]  # iiwa_gripper
-    assert "7 joints  mobile  gripper" in lines[2] and "124 spheres" in lines[2]  # panda
-    assert "7 joints  fixed   gripper" in lines[3] and "124 spheres" in lines[3]  # panda_table
-    assert "6 joints  mobile  gripper" in lines[4] and "94 spheres" in lines[4]  # xarm6
+    assert "7 joints  fixed   gripper" in lines[2] and "155 spheres" in lines[2]  # its table's
+    assert "7 joints  mobile  gripper" in lines[3] and "124 spheres" in lines[3]  # panda
+    assert "7 joints  fixed   gripper" in lines[4] and "124 spheres" in lines[4]  # panda_table
+    assert "6 joints  mobile  gripper" in lines[5] and "94 spheres" in lines[5]  # xarm6
     assert len({line.index(" joints") for line in lines}) == 1  # a column for the longest name
 
 

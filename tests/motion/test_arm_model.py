@@ -174,7 +174,8 @@ def test_a_problem_for_another_robot_names_it_and_hashes_apart(xarm_p2: Problem)
 
 def test_a_robot_that_cannot_plan_is_named(tmp_path: Path) -> None:
     with pytest.raises(
-        StalmError, match=r"no robot 'nope'.*iiwa, iiwa_gripper, panda, panda_table, xarm6"
+        StalmError,
+        match=r"no robot 'nope'.*iiwa, iiwa_gripper, iiwa_gripper_table, panda, panda_table",
     ):
         load_problem("P2").with_robot("nope")
     with pytest.raises(StalmError, match="'iiwa' has no gripper"):

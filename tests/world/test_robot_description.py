@@ -40,6 +40,7 @@ def test_the_shipped_robots_load_with_their_chains() -> None:
     assert builtin_robots() == (
         "iiwa",
         "iiwa_gripper",
+        "iiwa_gripper_table",
         "panda",
         "panda_table",
         "xarm6",
@@ -49,6 +50,7 @@ def test_the_shipped_robots_load_with_their_chains() -> None:
     assert joints == {
         "iiwa": 7,
         "iiwa_gripper": 7,
+        "iiwa_gripper_table": 7,
         "panda": 7,
         "panda_table": 7,
         "xarm6": 6,
