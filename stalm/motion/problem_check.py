@@ -23,7 +23,13 @@ import math
 from collections import deque
 
 from stalm.errors import StalmError
-from stalm.motion.roadmap import FootprintChecker, Roadmap, RoadmapSettings, load_or_build_roadmap
+from stalm.motion.roadmap import (
+    FootprintChecker,
+    Roadmap,
+    RoadmapSettings,
+    fitted_to,
+    load_or_build_roadmap,
+)
 from stalm.world.problem import Problem
 from stalm.world.scene import Sim
 from stalm.world.state import RobotConf
@@ -96,7 +102,7 @@ def problem_geometry_faults(problem: Problem, settings: RoadmapSettings | None =
         if faults:
             return faults
         doors = frozenset(door.name for door in spec.doors)
-        settings = settings or RoadmapSettings()
+        settings = fitted_to(settings or RoadmapSettings(), sim)
         roadmap = load_or_build_roadmap(sim, doors, settings)
         start = roadmap.anchor_index(*spec.robot.base[:2])
         reached = _reachable(roadmap, start) if start is not None else set()

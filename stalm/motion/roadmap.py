@@ -31,7 +31,7 @@ import os
 import warnings
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import suppress
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -52,6 +52,10 @@ PASSAGE_OFFSETS = (0.35, 0.7)
 nodes (besides the middle itself)."""
 
 
+PROXY_CLEARANCE = 0.02
+"""How much wider (m) than the robot's base the cylinder the roadmap is checked with is."""
+
+
 @dataclass(frozen=True)
 class RoadmapSettings:
     """PRM parameters; all are part of the cache key."""
@@ -63,7 +67,7 @@ class RoadmapSettings:
     """Add nodes in and beside every doorway (module docstring)."""
     max_edge: float = 2.5
     resolution: float = 0.05
-    proxy_radius: float = robot_model.BASE_RADIUS + 0.02
+    proxy_radius: float = robot_model.BASE_RADIUS + PROXY_CLEARANCE
     proxy_height: float = 1.45
     seed: int = 0
 
@@ -341,10 +345,19 @@ def _read_cached_roadmap(path: Path, open_doors: frozenset[str]) -> Roadmap | No
         return None
 
 
+def fitted_to(settings: RoadmapSettings, sim: Sim) -> RoadmapSettings:
+    """``settings`` with a proxy at least as wide as ``sim``'s robot's base plus its 2 cm
+    clearance: a robot file with a wider base than the Panda's is planned for as it is."""
+    radius = sim.robot.platform.base_radius + PROXY_CLEARANCE
+    return settings if settings.proxy_radius >= radius else replace(settings, proxy_radius=radius)
+
+
 def load_or_build_roadmap(
     sim: Sim, open_doors: frozenset[str], settings: RoadmapSettings
 ) -> Roadmap:
-    """The roadmap for this static scene and door setting, from the disk cache if present."""
+    """The roadmap for this static scene and door setting, from the disk cache if present
+    (its proxy :func:`fitted_to` the robot)."""
+    settings = fitted_to(settings, sim)
     key = static_scene_key(sim.problem, open_doors, settings)
     path = cache_dir() / f"{key}.npz"
     if path.exists():

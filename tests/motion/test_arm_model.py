@@ -192,3 +192,20 @@ def test_a_robot_that_cannot_plan_is_named(tmp_path: Path) -> None:
     )
     with pytest.raises(StalmError, match="a fixed arm works from one pose"):
         load_problem("P2").with_robot(str(fixed))
+
+
+def test_the_roadmap_plans_for_a_wider_base_as_it_is(tmp_path: Path) -> None:
+    from stalm.motion.roadmap import RoadmapSettings, fitted_to
+
+    settings = RoadmapSettings()
+    with Sim(load_problem("P2").spec) as sim:
+        assert fitted_to(settings, sim) is settings  # the Panda's: its cache keys unchanged
+    xarm = Path(robot_named("xarm6").source)
+    wide = tmp_path / "wide.yaml"
+    wide.write_text(
+        xarm.read_text()
+        .replace("base_radius: 0.3", "base_radius: 0.45")
+        .replace("pybullet_data:xarm/xarm6_with_gripper.urdf", str(robot_named("xarm6").urdf_path))
+    )
+    with Sim(load_problem("P2").with_robot(str(wide)).spec) as sim:
+        assert fitted_to(settings, sim).proxy_radius == pytest.approx(0.47, abs=1e-12)
