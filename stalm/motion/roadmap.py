@@ -1,12 +1,12 @@
 """A probabilistic roadmap over the floor for the robot's footprint, one per door setting.
 
 Nodes are collision-free (x, y) positions of a footprint proxy (a cylinder covering the base
-and the folded arm); edges are straight segments checked at :attr:`RoadmapSettings.resolution`
-against walls, regions and doors. Movable objects are not in the roadmap: base paths are
-checked against them when queried (see :mod:`stalm.motion.base_motion`). Standing poses of
-regions and doors and the robot's start are added as anchor nodes, so every query in the
-domain is between nodes. A roadmap depends only on the static scene, so it is built once and
-cached on disk under a hash of that content.
+and the folded arm, :func:`fitted_to` the robot's base); edges are straight segments checked at
+:attr:`RoadmapSettings.resolution` against walls, regions and doors. Movable objects are not in
+the roadmap: base paths are checked against them when queried (see
+:mod:`stalm.motion.base_motion`). Standing poses of regions and doors and the robot's start are
+added as anchor nodes, so every query in the domain is between nodes. A roadmap depends only on
+the static scene, so it is built once and cached on disk under a hash of that content.
 
 Narrow passages are where a sampled roadmap fails: with a fixed number of nearest neighbours
 the nodes beside a wall all linked to nodes on their own side, and a 1.6 m doorway the robot
@@ -48,12 +48,10 @@ ROADMAP_FORMAT = 3
 """Bump when the roadmap construction changes, so stale cache files are not reused."""
 
 PASSAGE_OFFSETS = (0.35, 0.7)
-"""Distances (m) from a doorway's middle, along its normal on both sides, of its passage
-nodes (besides the middle itself)."""
+"""Distances (m) of a doorway's passage nodes from its middle, along its normal each way."""
 
 
-PROXY_CLEARANCE = 0.02
-"""How much wider (m) than the robot's base the cylinder the roadmap is checked with is."""
+PROXY_CLEARANCE = 0.02  # m: how much wider than the robot's base the roadmap's cylinder is
 
 
 @dataclass(frozen=True)
@@ -346,8 +344,7 @@ def _read_cached_roadmap(path: Path, open_doors: frozenset[str]) -> Roadmap | No
 
 
 def fitted_to(settings: RoadmapSettings, sim: Sim) -> RoadmapSettings:
-    """``settings`` with a proxy at least as wide as ``sim``'s robot's base plus its 2 cm
-    clearance: a robot file with a wider base than the Panda's is planned for as it is."""
+    """``settings`` with a proxy at least ``sim``'s robot's base plus the clearance wide."""
     radius = sim.robot.platform.base_radius + PROXY_CLEARANCE
     return settings if settings.proxy_radius >= radius else replace(settings, proxy_radius=radius)
 
@@ -355,8 +352,7 @@ def fitted_to(settings: RoadmapSettings, sim: Sim) -> RoadmapSettings:
 def load_or_build_roadmap(
     sim: Sim, open_doors: frozenset[str], settings: RoadmapSettings
 ) -> Roadmap:
-    """The roadmap for this static scene and door setting, from the disk cache if present
-    (its proxy :func:`fitted_to` the robot)."""
+    """The roadmap for this static scene and door setting, from the disk cache if present."""
     settings = fitted_to(settings, sim)
     key = static_scene_key(sim.problem, open_doors, settings)
     path = cache_dir() / f"{key}.npz"
