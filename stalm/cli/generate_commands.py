@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
@@ -12,6 +12,9 @@ from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
 from stalm.errors import StalmError
 from stalm.generate.arrange import MAX_OBJECTS
+
+if TYPE_CHECKING:
+    from stalm.generate.clutter_meshes import ClutterMesh
 
 commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
@@ -27,6 +30,18 @@ def _sizes(text: str) -> tuple[int, ...]:
     if not sizes or min(sizes) < 1:
         raise StalmError(f"--sizes must be positive numbers of objects, got {text!r}")
     return sizes
+
+
+def _clutter(source: str | None, folder: Path) -> tuple[ClutterMesh, ...]:
+    """The meshes ``--objects-from`` names, fitted and checked, said in one line."""
+    from stalm.generate.clutter_meshes import clutter_from
+
+    if source is None:
+        return ()
+    with console.status("checking meshes for clutter...") as status:
+        made = clutter_from(source, folder, lambda message: status.update(shown(message)))
+    console.print(shown(made.summary()), highlight=False, soft_wrap=True)
+    return made.meshes
 
 
 @commands.command("generate")
@@ -68,6 +83,15 @@ def generate_command(
             "file (a problem file with no objects and no goal, FILE.yaml)."
         ),
     ] = "kitchen-hall",
+    objects_from: Annotated[
+        str | None,
+        typer.Option(
+            metavar="DIR|pybullet_data",
+            help="Make about half the clutter meshes: the OBJ files of a folder (each scaled to "
+            "fill a slot, kept if it rests upright as loaded) or 'pybullet_data', the set "
+            "shipped with stalm; the kept count is said in one line.",
+        ),
+    ] = None,
     suite: Annotated[
         str | None, typer.Option(help="Make a suite of this name in the folder --out.")
     ] = None,
@@ -103,13 +127,14 @@ def generate_command(
     if replace and suite is None:
         raise StalmError("--replace goes with --suite (one problem's files are always replaced)")
     static = load_layout(layout)
+    clutter = _clutter(objects_from, out if suite is not None else out.parent)
     if suite is not None:
         check_suite_name(suite)
         if out.exists() and not out.is_dir():
             raise StalmError(f"-o {out}: is a file; with --suite, -o names a folder")
         check_output_file(out / "index.json", "-o")
         counts = _sizes(sizes)
-        knobs = Knobs(max(counts), goals, occlusion_depth, door == "closed", trap)
+        knobs = Knobs(max(counts), goals, occlusion_depth, door == "closed", trap, clutter)
         with console.status("generating the suite...") as status:
             made = generate_suite(
                 suite,
@@ -128,11 +153,16 @@ def generate_command(
         raise StalmError(f"-o {out}: a problem file ends in .yaml")
     check_output_file(out, "-o")
     check_output_file(witness_path(out), "-o (its witness)")
-    knobs = Knobs(objects, goals, occlusion_depth, door == "closed", trap)
+    knobs = Knobs(objects, goals, occlusion_depth, door == "closed", trap, clutter)
     static.check_capacity(knobs)
     with console.status("generating (grounding the witness in the simulator)..."):
         generated = generate_problem(
-            knobs, seed, problem_name(out.stem), layout=static, source=str(out)
+            knobs,
+            seed,
+            problem_name(out.stem),
+            layout=static,
+            source=str(out),
+            folder=out.parent,
         )
     witness = write_generated(generated, out)
     length = generated.problem.spec.optimal_length

@@ -29,6 +29,7 @@ import numpy as np
 
 from stalm.domain.actions import DiscreteAction, Open, Pick, Place
 from stalm.errors import StalmError
+from stalm.generate.clutter_meshes import MESH_SHARE, ClutterMesh
 
 ROW = 0.09
 """Metres between rows of slots (along ``u``): a bottle's diameter and 2 cm."""
@@ -73,6 +74,9 @@ class Knobs:
     occlusion_depth: int = 1
     door: bool = True
     trap: bool = False
+    clutter: tuple[ClutterMesh, ...] = ()
+    """Meshes about half the clutter is drawn from (none: cans and bottles only, drawn as
+    before meshes could be, so earlier seeds make the same files)."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.goals <= MAX_GOALS:
@@ -319,7 +323,7 @@ def arrange(
         if not open_slots:
             raise StalmError(f"--objects {knobs.objects}: no room left for more clutter")
         region, key = open_slots[int(rng.integers(len(open_slots)))]
-        kind = BOTTLE if rng.random() < 0.4 else CAN
+        kind = _clutter_kind(knobs.clutter, rng)
         put(kind, "item", region, slots[region].take(key))
     plan: list[DiscreteAction] = [Open(door)] if door else []
     dump = iter(put_down)
@@ -329,6 +333,14 @@ def arrange(
                 step = Place(step.obj, "on", next(dump))
             plan.append(step)
     return Arrangement(objects, goal, tuple(plan), dumps)
+
+
+def _clutter_kind(meshes: tuple[ClutterMesh, ...], rng: np.random.Generator) -> dict[str, Any]:
+    """A clutter object's shape: a mesh of ``meshes`` (:data:`MESH_SHARE` of the time), else a
+    bottle or a can; without meshes the one draw it always was."""
+    if meshes and rng.random() < MESH_SHARE:
+        return meshes[int(rng.integers(len(meshes)))].kind()
+    return BOTTLE if rng.random() < 0.4 else CAN
 
 
 def _columns(slots: Slots) -> list[int]:

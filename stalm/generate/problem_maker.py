@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -101,9 +102,11 @@ def generate_problem(
     *,
     layout: Layout | str = "kitchen-hall",
     source: str = "<generated>",
+    folder: Path | None = None,
 ) -> Generated:
     """The first candidate for ``seed`` that passes every check (see the module docstring);
-    ``layout`` is a :class:`Layout` or what ``--layout`` names."""
+    ``layout`` is a :class:`Layout` or what ``--layout`` names; ``folder`` is where the file
+    goes, which clutter meshes named by a relative path are relative to."""
     if seed < 0:
         raise StalmError(f"--seed must be at least 0, got {seed}")
     if isinstance(layout, str):
@@ -113,7 +116,7 @@ def generate_problem(
     for candidate in range(CANDIDATES):
         rng = np.random.default_rng([seed, candidate])
         data, arrangement = _problem_data(knobs, seed, name, layout, rng)
-        problem = Problem(parse_problem(data, source), source)
+        problem = Problem(parse_problem(data, source, base=folder), source)
         faults = problem_geometry_faults(problem)
         if faults:
             reasons.append(faults[0])
@@ -124,7 +127,7 @@ def generate_problem(
             continue
         data["optimal_length"] = len(witness.actions)
         data["horizon"] = max(HORIZON, len(witness.actions) + HORIZON_SLACK)
-        final = Problem(parse_problem(data, source), source)
+        final = Problem(parse_problem(data, source, base=folder), source)
         return Generated(final, _yaml_text(data), witness, candidate)
     raise StalmError(
         f"no problem for seed {seed} after {CANDIDATES} candidates; the last failed: "

@@ -143,6 +143,7 @@ def generate_suite(
             problem_name(f"{name}_{index:03d}"),
             layout=layout,
             source=str(path),
+            folder=folder,
         )
         write_generated(generated, path)
         problems.append(
@@ -261,4 +262,6 @@ def _write_index(suite: Suite, problems: list[SuiteProblem], *, complete: bool) 
 def _knobs_json(knobs: Knobs) -> dict[str, Any]:
     data: dict[str, Any] = dataclasses.asdict(knobs)
     data.pop("objects")
+    if not knobs.clutter:
+        data.pop("clutter")  # a suite of cans and bottles has the index it always had
     return data

@@ -14,6 +14,7 @@ on its region's top and its footprint is that box's rectangle, as a box object's
 from __future__ import annotations
 
 import hashlib
+import os
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -37,7 +38,8 @@ def resolve_mesh_path(name: str, base: Path | None) -> Path:
     else:
         path = Path(name)
         if not path.is_absolute() and base is not None:
-            path = base / path
+            # lexically, so that "../meshes/a.obj" resolves for a folder not made yet
+            path = Path(os.path.normpath(base / path))
     if path.suffix.lower() != ".obj":
         raise ValueError(f"'{name}' is not an OBJ file (a mesh is a Wavefront .obj)")
     if not path.is_file():

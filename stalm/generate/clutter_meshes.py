@@ -1,0 +1,290 @@
+"""Mesh objects a generated problem's clutter is drawn from, each fitted to a slot and resting
+where it stands.
+
+``stalm generate --objects-from SOURCE`` makes about half the clutter meshes (the rest stays
+cans and bottles). ``SOURCE`` is a folder of Wavefront OBJ files (searched below it too) or
+:data:`BUILTIN`, the set shipped here: procedural objects of ``pybullet_data``'s
+``random_urdfs`` that passed the same checks when the set was made (a test checks them again).
+
+Every mesh is scaled to fill one slot of the generator's grid (:func:`fitted_scale`: its
+footprint's longer side :data:`SLOT_SIDE`, or its height :data:`TALLEST`), and is kept only if,
+at that scale, it is at least :data:`LOWEST` tall and :data:`NARROWEST` wide (a flake is no
+object to pick) and it rests where it is put: settled under gravity on a flat top as the file
+has it upright, it moves and tilts less than the physics check's tolerances
+(:func:`~stalm.world.physics_check.unsettled_objects`, with the centre of mass of its convex
+pieces). Of the 1,000 ``random_urdfs``, 428 topple or slide as loaded and 475 are too low or
+too thin at a slot's scale: 96 are kept (:data:`BUILTIN_MESHES`; scanning the folder takes
+about a minute). A mesh is never turned onto another face here: a problem file stands an
+object on its file's own bottom.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from stalm.errors import StalmError
+from stalm.world.mesh_files import PYBULLET_DATA_PREFIX, mesh_outline, resolve_mesh_path
+
+if TYPE_CHECKING:
+    from stalm.world.problem import Problem
+
+SLOT_SIDE = 0.07
+"""The longer side of a clutter mesh's footprint (m): a bottle's diameter, so that it stands in
+a slot as a bottle does, :data:`~stalm.generate.arrange.EDGE` from the next."""
+TALLEST = 0.25
+"""The tallest clutter mesh (m): a bottle's height."""
+LOWEST = 0.03
+"""A clutter mesh lower than this (m) at the scale that fits a slot is left out."""
+NARROWEST = 0.02
+"""A clutter mesh whose footprint's shorter side is below this (m) is left out."""
+BUILTIN = "pybullet_data"
+"""``--objects-from``'s name for the set shipped with stalm (:data:`BUILTIN_MESHES`)."""
+MESH_SHARE = 0.5
+"""The share of clutter objects drawn as meshes when the generator has some."""
+
+
+@dataclass(frozen=True)
+class ClutterMesh:
+    """A mesh clutter is drawn from: its file as a problem file names it, and its scale."""
+
+    mesh: str
+    scale: float
+
+    def kind(self) -> dict[str, Any]:
+        """The object fields a problem file gives an object of this mesh."""
+        return {"shape": "mesh", "mesh": self.mesh, "scale": self.scale}
+
+
+@dataclass(frozen=True)
+class ClutterSet:
+    """The meshes kept from a source, and why each of the others was left out."""
+
+    source: str
+    meshes: tuple[ClutterMesh, ...]
+    left_out: tuple[tuple[str, str], ...]
+    """(file, reason) of each mesh left out."""
+
+    def summary(self) -> str:
+        """One line: how many were kept, and the reasons the others were not, most common
+        first."""
+        seen = len(self.meshes) + len(self.left_out)
+        reasons = Counter(reason for _, reason in self.left_out).most_common()
+        why = "; ".join(f"{count} {reason}" for reason, count in reasons)
+        return f"--objects-from {self.source}: {len(self.meshes)} of {seen} meshes kept" + (
+            f" ({why})" if why else ""
+        )
+
+
+def fitted_scale(path: Path) -> float:
+    """The scale at which the OBJ at ``path`` fills a slot: the longer side of its footprint
+    :data:`SLOT_SIDE`, or its height :data:`TALLEST`, whichever is reached first; rounded
+    down to the 4 places a generated file keeps, so that the file's object is the one checked."""
+    hx, hy, hz = mesh_outline(path, 1.0).half_extents
+    scale = min(SLOT_SIDE / (2 * max(hx, hy)), TALLEST / (2 * hz))
+    return math.floor(scale * 1e4) / 1e4
+
+
+def why_left_out(mesh: ClutterMesh, base: Path | None = None) -> str | None:
+    """Why ``mesh`` cannot be clutter (a few words), or None when it can: at its scale it is
+    too low or too thin, or it does not rest upright where it is put."""
+    from stalm.world.physics_check import unsettled_objects  # PyBullet: only when checking
+
+    problem = _alone_on_a_table(mesh, base)
+    hx, hy, hz = problem.spec.objects[0].half_extents
+    if 2 * hz < LOWEST:
+        return f"lower than {LOWEST * 100:g} cm"
+    if 2 * min(hx, hy) < NARROWEST:
+        return f"thinner than {NARROWEST * 100:g} cm"
+    if unsettled_objects(problem):
+        return "topple or slide as loaded"
+    return None
+
+
+def _alone_on_a_table(mesh: ClutterMesh, base: Path | None) -> Problem:
+    """A problem of ``mesh`` alone in the middle of a table, the robot well away."""
+    from stalm.world.problem import Problem
+    from stalm.world.problem_file import parse_problem
+
+    data = {
+        "name": "clutter_check",
+        "horizon": 1,
+        "time_budget_s": 1.0,
+        "floor": [[-2.0, -2.0], [2.0, 2.0]],
+        "robot": {"base": [-1.0, 0.0, 0.0]},
+        "regions": [
+            {
+                "name": "table",
+                "room": "room",
+                "center": [1.0, 0.0],
+                "size": [0.6, 0.6],
+                "top": 0.7,
+                "base_pose": [0.3, 0.0, 0.0],
+            }
+        ],
+        "objects": [{"name": "thing", **mesh.kind(), "on": "table", "at": [0.0, 0.0]}],
+        "goal": [["thing", "on", "table"]],
+    }
+    return Problem(parse_problem(data, f"<{mesh.mesh}>", base=base), f"<{mesh.mesh}>")
+
+
+def clutter_from(
+    source: str,
+    problem_folder: Path,
+    progress: Callable[[str], None] = lambda _: None,
+) -> ClutterSet:
+    """The meshes of ``source`` (:data:`BUILTIN`, or a folder of OBJ files) that can be
+    clutter, named as a problem file in ``problem_folder`` names them (relative to it, or
+    ``pybullet_data:`` inside that package). A folder holding no OBJ file, or none that can
+    be clutter, is a StalmError that says why the files were left out."""
+    if source == BUILTIN:
+        return ClutterSet(source, BUILTIN_MESHES, ())
+    folder = Path(source)
+    if not folder.is_dir():
+        raise StalmError(f"--objects-from {source}: not a folder (nor '{BUILTIN}')")
+    files = sorted(p for p in folder.rglob("*") if p.suffix.lower() == ".obj" and p.is_file())
+    if not files:
+        raise StalmError(f"--objects-from {source}: no .obj file in the folder")
+    kept: list[ClutterMesh] = []
+    left_out: list[tuple[str, str]] = []
+    first_error = ""
+    for index, path in enumerate(files):
+        progress(f"checking meshes for clutter: {path.name} ({index + 1} of {len(files)})")
+        name = _problem_name(path.resolve(), problem_folder.resolve())
+        try:
+            mesh = ClutterMesh(name, fitted_scale(resolve_mesh_path(name, problem_folder)))
+            reason = why_left_out(mesh, problem_folder)
+        except (StalmError, ValueError) as error:
+            mesh, reason = None, _unreadable(error)
+            first_error = first_error or f"{path.name}: {error}".splitlines()[0]
+        if mesh is None or reason is not None:
+            left_out.append((str(path), reason or "unreadable"))
+        else:
+            kept.append(mesh)
+    made = ClutterSet(source, tuple(kept), tuple(left_out))
+    if not kept:
+        why = f"; the first that could not be read: {first_error}" if first_error else ""
+        raise StalmError(f"{made.summary()}: none can be clutter{why}")
+    return made
+
+
+def _unreadable(error: Exception) -> str:
+    """A reason that groups with its kind: a mesh V-HACD cannot decompose, or one unread."""
+    return "V-HACD could not decompose" if "V-HACD" in str(error) else "unreadable"
+
+
+def _problem_name(path: Path, problem_folder: Path) -> str:
+    """How a problem file in ``problem_folder`` names the mesh at ``path``."""
+    import pybullet_data
+
+    data = Path(pybullet_data.getDataPath()).resolve()
+    if path.is_relative_to(data):
+        return PYBULLET_DATA_PREFIX + path.relative_to(data).as_posix()
+    return Path(os.path.relpath(path, problem_folder)).as_posix()
+
+
+BUILTIN_MESHES: tuple[ClutterMesh, ...] = (
+    ClutterMesh("pybullet_data:random_urdfs/004/004.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/028/028.obj", 0.0086),
+    ClutterMesh("pybullet_data:random_urdfs/037/037.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/053/053.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/061/061.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/067/067.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/077/077.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/094/094.obj", 0.0114),
+    ClutterMesh("pybullet_data:random_urdfs/095/095.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/171/171.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/173/173.obj", 0.0086),
+    ClutterMesh("pybullet_data:random_urdfs/197/197.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/198/198.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/202/202.obj", 0.0114),
+    ClutterMesh("pybullet_data:random_urdfs/221/221.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/236/236.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/246/246.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/250/250.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/255/255.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/283/283.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/288/288.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/300/300.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/305/305.obj", 0.0087),
+    ClutterMesh("pybullet_data:random_urdfs/321/321.obj", 0.0169),
+    ClutterMesh("pybullet_data:random_urdfs/323/323.obj", 0.0086),
+    ClutterMesh("pybullet_data:random_urdfs/341/341.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/343/343.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/345/345.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/347/347.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/355/355.obj", 0.0117),
+    ClutterMesh("pybullet_data:random_urdfs/380/380.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/393/393.obj", 0.0114),
+    ClutterMesh("pybullet_data:random_urdfs/403/403.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/418/418.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/428/428.obj", 0.0114),
+    ClutterMesh("pybullet_data:random_urdfs/429/429.obj", 0.0115),
+    ClutterMesh("pybullet_data:random_urdfs/440/440.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/444/444.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/452/452.obj", 0.0115),
+    ClutterMesh("pybullet_data:random_urdfs/454/454.obj", 0.0167),
+    ClutterMesh("pybullet_data:random_urdfs/455/455.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/459/459.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/466/466.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/491/491.obj", 0.0115),
+    ClutterMesh("pybullet_data:random_urdfs/492/492.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/502/502.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/503/503.obj", 0.0115),
+    ClutterMesh("pybullet_data:random_urdfs/535/535.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/543/543.obj", 0.0115),
+    ClutterMesh("pybullet_data:random_urdfs/573/573.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/579/579.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/580/580.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/608/608.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/610/610.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/614/614.obj", 0.0087),
+    ClutterMesh("pybullet_data:random_urdfs/615/615.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/623/623.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/627/627.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/628/628.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/629/629.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/631/631.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/632/632.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/640/640.obj", 0.0115),
+    ClutterMesh("pybullet_data:random_urdfs/645/645.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/656/656.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/666/666.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/673/673.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/679/679.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/688/688.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/695/695.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/699/699.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/703/703.obj", 0.017),
+    ClutterMesh("pybullet_data:random_urdfs/713/713.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/740/740.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/745/745.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/746/746.obj", 0.0115),
+    ClutterMesh("pybullet_data:random_urdfs/773/773.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/774/774.obj", 0.0086),
+    ClutterMesh("pybullet_data:random_urdfs/787/787.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/792/792.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/795/795.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/818/818.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/827/827.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/847/847.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/856/856.obj", 0.0113),
+    ClutterMesh("pybullet_data:random_urdfs/858/858.obj", 0.0115),
+    ClutterMesh("pybullet_data:random_urdfs/882/882.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/900/900.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/905/905.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/918/918.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/936/936.obj", 0.0116),
+    ClutterMesh("pybullet_data:random_urdfs/953/953.obj", 0.0085),
+    ClutterMesh("pybullet_data:random_urdfs/957/957.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/968/968.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/984/984.obj", 0.0112),
+    ClutterMesh("pybullet_data:random_urdfs/999/999.obj", 0.0112),
+)
+"""The shipped clutter set: ``random_urdfs`` meshes that passed :func:`why_left_out` at
+their :func:`fitted_scale` (every one of the 1,000 was checked; see the module docstring)."""
