@@ -72,9 +72,10 @@ class ClutterSet:
 
     def summary(self) -> str:
         """One line: how many were kept, and the reasons the others were not, most common
-        first."""
+        first (ties in the order of the alphabet)."""
         seen = len(self.meshes) + len(self.left_out)
-        reasons = Counter(reason for _, reason in self.left_out).most_common()
+        counts = Counter(reason for _, reason in self.left_out)
+        reasons = sorted(counts.items(), key=lambda item: (-item[1], item[0]))
         why = "; ".join(f"{count} {reason}" for reason, count in reasons)
         return f"--objects-from {self.source}: {len(self.meshes)} of {seen} meshes kept" + (
             f" ({why})" if why else ""

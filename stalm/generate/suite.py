@@ -262,6 +262,8 @@ def _write_index(suite: Suite, problems: list[SuiteProblem], *, complete: bool) 
 def _knobs_json(knobs: Knobs) -> dict[str, Any]:
     data: dict[str, Any] = dataclasses.asdict(knobs)
     data.pop("objects")
-    if not knobs.clutter:
+    if knobs.clutter:
+        data["clutter"] = [dataclasses.asdict(mesh) for mesh in knobs.clutter]  # as JSON reads
+    else:
         data.pop("clutter")  # a suite of cans and bottles has the index it always had
     return data

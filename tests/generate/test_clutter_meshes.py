@@ -1,0 +1,190 @@
+"""Mesh clutter: a folder's meshes fitted to a slot and kept only if they rest upright; the
+shipped set passes the same checks; generated scenes with mesh clutter rest where the file puts
+them, are the same for the same seed, and their meshes are covered conservatively by the
+batched engine's boxes."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pybullet_data
+import pytest
+import yaml
+
+from stalm.errors import StalmError
+from stalm.generate.arrange import Knobs
+from stalm.generate.clutter_meshes import (
+    BUILTIN,
+    BUILTIN_MESHES,
+    LOWEST,
+    NARROWEST,
+    SLOT_SIDE,
+    TALLEST,
+    ClutterMesh,
+    clutter_from,
+    fitted_scale,
+    why_left_out,
+)
+from stalm.generate.problem_maker import generate_problem
+from stalm.generate.suite import generate_suite
+from stalm.motion.scene_primitives import MESH_BOX_PADDING, MOST_PIECE_BOXES, object_boxes
+from stalm.world.mesh_files import resolve_mesh_path
+from stalm.world.mesh_pieces import object_pieces
+from stalm.world.physics_check import unsettled_objects
+from tests.cli_runner import run_cli
+
+RANDOM_URDFS = Path(pybullet_data.getDataPath()) / "random_urdfs"
+KEPT, TOPPLES, LOW = "004", "003", "000"
+"""random_urdfs that rest upright at a slot's scale, that topple as loaded, and that are lower
+than 3 cm at it (found by scanning the 1,000)."""
+
+
+def _folder(tmp_path: Path, *numbers: str) -> Path:
+    folder = tmp_path / "meshes"
+    (folder / "deeper").mkdir(parents=True)
+    for index, number in enumerate(numbers):
+        into = folder / "deeper" if index % 2 else folder
+        shutil.copy(RANDOM_URDFS / number / f"{number}.obj", into / f"{number}.obj")
+    return folder
+
+
+def test_a_folder_keeps_what_rests_upright_and_says_why_the_rest_was_left_out(
+    tmp_path: Path,
+) -> None:
+    folder = _folder(tmp_path, KEPT, TOPPLES, LOW)
+    (folder / "broken.obj").write_text("v 0 0 0\n")  # no face: unreadable
+    (folder / "notes.txt").write_text("not a mesh")
+    made = clutter_from(str(folder), tmp_path / "problems")
+    assert [m.mesh for m in made.meshes] == [f"../meshes/{KEPT}.obj"]  # relative to the file
+    assert made.meshes[0].scale == fitted_scale(folder / f"{KEPT}.obj")
+    assert made.summary() == (
+        f"--objects-from {folder}: 1 of 4 meshes kept "
+        "(1 lower than 3 cm; 1 topple or slide as loaded; 1 unreadable)"
+    )
+
+
+def test_a_folder_with_nothing_to_keep_is_an_error_naming_why(tmp_path: Path) -> None:
+    folder = _folder(tmp_path, TOPPLES)
+    (folder / "broken.obj").write_text("v 0 0 0\n")
+    with pytest.raises(StalmError, match=r"0 of 2 meshes kept .*none can be clutter; the first"):
+        clutter_from(str(folder), tmp_path)
+    with pytest.raises(StalmError, match=r"no \.obj file in the folder"):
+        clutter_from(str(tmp_path / "meshes" / "deeper"), tmp_path)
+    with pytest.raises(StalmError, match=r"not a folder \(nor 'pybullet_data'\)"):
+        clutter_from(str(tmp_path / "nowhere"), tmp_path)
+
+
+def test_a_fitted_mesh_fills_one_slot() -> None:
+    for number in (KEPT, TOPPLES, LOW, "444"):
+        mesh = ClutterMesh(f"pybullet_data:random_urdfs/{number}/{number}.obj", 0.0)
+        path = resolve_mesh_path(mesh.mesh, None)
+        scale = fitted_scale(path)
+        problem_mesh = ClutterMesh(mesh.mesh, scale)
+        hx, hy, hz = _half_extents(problem_mesh)
+        # the scale is rounded down to 4 places: a side falls short by at most 1e-4 of itself
+        # at scale 1
+        tol = 1e-4 * 2 * max(_half_extents(ClutterMesh(mesh.mesh, 1.0)))
+        assert max(hx, hy) * 2 <= SLOT_SIDE + 1e-9 and hz * 2 <= TALLEST + 1e-9
+        assert max(hx, hy) * 2 >= SLOT_SIDE - tol or hz * 2 >= TALLEST - tol
+
+
+def _half_extents(mesh: ClutterMesh) -> tuple[float, float, float]:
+    from stalm.world.mesh_files import mesh_outline
+
+    return mesh_outline(resolve_mesh_path(mesh.mesh, None), mesh.scale).half_extents
+
+
+@pytest.mark.parametrize(
+    "meshes",
+    [
+        pytest.param(BUILTIN_MESHES[::24], id="a sample"),
+        pytest.param(BUILTIN_MESHES, id="all", marks=pytest.mark.slow),
+    ],
+)
+def test_the_shipped_set_passes_the_checks_it_was_made_by(
+    meshes: tuple[ClutterMesh, ...],
+) -> None:
+    assert len(BUILTIN_MESHES) == 96 and clutter_from(BUILTIN, Path(".")).meshes == BUILTIN_MESHES
+    for mesh in meshes:
+        assert mesh.scale == fitted_scale(resolve_mesh_path(mesh.mesh, None)), mesh
+        assert why_left_out(mesh) is None, mesh
+        hx, hy, hz = _half_extents(mesh)
+        assert 2 * hz >= LOWEST and 2 * min(hx, hy) >= NARROWEST
+
+
+def test_a_generated_scene_of_mesh_clutter_rests_and_is_the_same_for_the_same_seed() -> None:
+    knobs = Knobs(objects=40, clutter=BUILTIN_MESHES)
+    first = generate_problem(knobs, 3, "meshy", layout="storeroom")
+    again = generate_problem(knobs, 3, "meshy", layout="storeroom")
+    assert first.text == again.text
+    objects = yaml.safe_load(first.text)["objects"]
+    clutter = [o for o in objects if o["name"].startswith("item_")]
+    meshes = [o for o in clutter if o["shape"] == "mesh"]
+    assert 0.3 <= len(meshes) / len(clutter) <= 0.7  # about half, drawn
+    assert {(o["mesh"], o["scale"]) for o in meshes} <= {(m.mesh, m.scale) for m in BUILTIN_MESHES}
+    assert unsettled_objects(first.problem) == ()  # every object rests where the file puts it
+
+
+def test_without_meshes_a_scene_is_drawn_as_before() -> None:
+    """The mesh draw is skipped when there are no meshes: no other draw moves (the kitchen's
+    committed suites and goldens are made the same)."""
+    plain = generate_problem(Knobs(objects=30), 4, "plain", layout="storeroom")
+    assert "mesh" not in plain.text
+    assert plain.text == generate_problem(Knobs(30, clutter=()), 4, "plain", layout="storeroom").text
+
+
+def test_a_suite_records_its_clutter_and_a_plain_suite_its_old_index(tmp_path: Path) -> None:
+    knobs = Knobs(objects=12, clutter=BUILTIN_MESHES[:3])
+    meshy = generate_suite("meshy", (12,), 1, 0, tmp_path / "meshy", knobs, layout="storeroom")
+    index = yaml.safe_load((tmp_path / "meshy" / "index.json").read_text())
+    assert index["knobs"]["clutter"] == [{"mesh": m.mesh, "scale": m.scale} for m in knobs.clutter]
+    assert meshy.knobs["clutter"] == index["knobs"]["clutter"]
+    plain = generate_suite("plain", (12,), 1, 0, tmp_path / "plain", Knobs(objects=12))
+    assert "clutter" not in plain.knobs
+    # the same arguments resume the suite rather than refuse it as another
+    again = generate_suite("meshy", (12,), 1, 0, tmp_path / "meshy", knobs, layout="storeroom")
+    assert again.problems == meshy.problems
+
+
+def test_the_command_says_what_it_kept_and_writes_meshes_relative_to_the_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    folder = _folder(tmp_path, KEPT, TOPPLES)
+    out = tmp_path / "made" / "scene.yaml"
+    code = run_cli(
+        monkeypatch, "generate", "--layout", "storeroom", "--objects", "30", "--seed", "2",
+        "--objects-from", str(folder), "-o", str(out),
+    )  # fmt: skip
+    assert code == 0
+    assert "1 of 2 meshes kept (1 topple or slide as loaded)" in capsys.readouterr().err
+    assert f"mesh: ../meshes/{KEPT}.obj" in out.read_text()
+    bad = run_cli(
+        monkeypatch, "generate", "--objects-from", str(tmp_path / "none"), "-o", str(out)
+    )
+    assert bad == 2 and "not a folder" in capsys.readouterr().err
+
+
+def test_a_mesh_of_many_pieces_is_covered_by_one_box_that_holds_every_piece() -> None:
+    problem_objects = _objects_of("meshclutter20_seed5")
+    many = [o for o in problem_objects if o.shape == "mesh" and len(object_pieces(o).vertices) > 8]
+    few = [o for o in problem_objects if o.shape == "mesh" and len(object_pieces(o).vertices) <= 8]
+    assert many and few
+    for obj in many + few:
+        boxes = object_boxes(obj)
+        pieces = object_pieces(obj).vertices
+        assert len(boxes) == (1 if len(pieces) > MOST_PIECE_BOXES else len(pieces))
+        points = np.vstack(pieces)
+        inside = np.zeros(len(points), dtype=bool)
+        for centre, half in boxes:
+            margin = np.asarray(half) - np.abs(points - np.asarray(centre))
+            inside |= np.all(margin >= MESH_BOX_PADDING - 1e-12, axis=1)
+        assert inside.all(), obj.name  # with the padding to spare: a conservative cover
+
+
+def _objects_of(name: str):  # type: ignore[no-untyped-def]
+    from stalm.world.problem import load_problem
+
+    data = Path(__file__).parents[1] / "motion" / "data" / f"{name}.yaml"
+    return load_problem(data).spec.objects
