@@ -36,9 +36,9 @@ from stalm.world.physics_check import unsettled_objects
 from tests.cli_runner import run_cli
 
 RANDOM_URDFS = Path(pybullet_data.getDataPath()) / "random_urdfs"
-KEPT, TOPPLES, LOW = "004", "003", "000"
-"""random_urdfs that rest upright at a slot's scale, that topple as loaded, and that are lower
-than 3 cm at it (found by scanning the 1,000)."""
+KEPT, TOPPLES, LOW, THIN = "004", "003", "000", "006"
+"""random_urdfs that rest upright at a slot's scale, that topple as loaded, that are lower
+than 3 cm at it, and thinner than 2 cm (found by scanning the 1,000)."""
 
 
 def _folder(tmp_path: Path, *numbers: str) -> Path:
@@ -53,15 +53,22 @@ def _folder(tmp_path: Path, *numbers: str) -> Path:
 def test_a_folder_keeps_what_rests_upright_and_says_why_the_rest_was_left_out(
     tmp_path: Path,
 ) -> None:
-    folder = _folder(tmp_path, KEPT, TOPPLES, LOW)
+    folder = _folder(tmp_path, KEPT, TOPPLES, LOW, THIN)
     (folder / "broken.obj").write_text("v 0 0 0\n")  # no face: unreadable
     (folder / "notes.txt").write_text("not a mesh")
     made = clutter_from(str(folder), tmp_path / "problems")
     assert [m.mesh for m in made.meshes] == [f"../meshes/{KEPT}.obj"]  # relative to the file
     assert made.meshes[0].scale == fitted_scale(folder / f"{KEPT}.obj")
     assert made.summary() == (
-        f"--objects-from {folder}: 1 of 4 meshes kept "
-        "(1 lower than 3 cm; 1 topple or slide as loaded; 1 unreadable)"
+        f"--objects-from {folder}: 1 of 5 meshes kept "
+        "(1 lower than 3 cm; 1 thinner than 2 cm; 1 topple or slide as loaded; 1 unreadable)"
+    )
+
+
+def test_a_folder_inside_pybullet_data_is_named_as_the_package_names_it(tmp_path: Path) -> None:
+    made = clutter_from(str(RANDOM_URDFS / KEPT), tmp_path)
+    assert made.meshes == (
+        ClutterMesh(f"pybullet_data:random_urdfs/{KEPT}/{KEPT}.obj", made.meshes[0].scale),
     )
 
 
