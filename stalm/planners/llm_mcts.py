@@ -56,6 +56,10 @@ from stalm.world.state import State
 LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
 QueryHook = Callable[[Proposal], None]
 
+UNIFORM_WEIGHT = 0.5
+"""Weight of the uniform distribution mixed into the prior's votes (the authors' 0.5), a
+constant of the method that the settings tree does not hold."""
+
 
 @dataclass(frozen=True)
 class PriorStats:
@@ -126,7 +130,7 @@ class LLMPrior:
         *,
         trial_seed: int,
         samples: int = 5,
-        uniform_weight: float = 0.5,
+        uniform_weight: float = UNIFORM_WEIGHT,
         deadline: Callable[[], float] | None = None,
         progress: Progress | None = None,
         on_query: QueryHook | None = None,
@@ -264,31 +268,12 @@ def llm_mcts_policies(settings: SearchSettings, prior: LLMPrior) -> SearchPolici
 
 
 @dataclass(frozen=True)
-class LlmMctsSettings:
-    """What LLM-MCTS reads of a run's settings tree (§4.2: N_budget = 35 simulations per real
-    step, c = 50, N_batch = 5 samples per prior), built by :meth:`of`; the tree holds the
-    defaults of all but ``uniform_weight``, a constant of the method the tree does not hold."""
-
-    search: SearchSettings
-    """The search's constants with LLM-MCTS's N_budget (``search``)."""
-    samples: int
-    """Replies per prior (``search.batch``)."""
-    uniform_weight: float = 0.5
-    """Weight of the uniform distribution mixed into the votes (the authors' 0.5)."""
-
-    @classmethod
-    def of(cls, settings: RunSettings) -> LlmMctsSettings:
-        budget = planner_rows()["llm-mcts"].budget(settings)
-        return cls(search=settings.search.search_settings(budget), samples=settings.search.batch)
-
-
-@dataclass(frozen=True)
 class LlmMcts:
     """LLM-MCTS's part of a planner: the proposer its prior asks, what it reads of the
     settings tree, where its prior reports progress; called at a trial's start, its steps."""
 
     proposer: TaskPlanProposer
-    settings: LlmMctsSettings
+    settings: RunSettings
     progress: Progress | None = None
 
     def __call__(self, trial: Trial) -> LlmMctsSteps:
@@ -302,17 +287,17 @@ def LlmMctsPlanner(
 ) -> OnlinePlanner:
     """LLM-MCTS run online: search from the current state, execute, repeat. ``settings`` is
     the run's settings tree (None: :class:`RunSettings`' defaults, which ``stalm solve
-    --planner llm-mcts`` runs); its part reads :class:`LlmMctsSettings` of it. The trial
+    --planner llm-mcts`` runs; N_budget: its registry row's), N_batch replies per prior
+    (``search.batch``). The trial
     computes the occlusion literals only for a prompt that shows them, and keeps the executed
     child's subtree, with its nodes' priors, as the next step's tree with
     ``execution.reuse_tree`` (the authors' loop, as for every online tree planner; off: a new
     tree every real step whose nodes ask the model anew)."""
-    run_settings = settings or RunSettings()
-    view = LlmMctsSettings.of(run_settings)
+    run_settings = planner_rows()["llm-mcts"].settings_for(settings or RunSettings())
     return OnlinePlanner(
         "llm-mcts",
         run_settings,
-        LlmMcts(proposer, view, progress),
+        LlmMcts(proposer, run_settings, progress),
         progress,
         rewards=run_settings.rewards,
         occlusion=run_settings.prompt.occlusion_predicates,
@@ -333,14 +318,13 @@ class LlmMctsSteps:
             planner.proposer,
             self._literals,
             trial_seed=trial.seed,
-            samples=settings.samples,
-            uniform_weight=settings.uniform_weight,
+            samples=settings.search.batch,
             deadline=lambda: trial.episode.deadline,
             progress=planner.progress,
             on_query=trial.episode.record_query,
             timing=trial.episode.clock,
         )
-        self.policies = llm_mcts_policies(settings.search, self.prior)
+        self.policies = llm_mcts_policies(settings.search.search_settings(), self.prior)
         self.calls_per_step: list[int] = []
 
     def _literals(self, state: State) -> frozenset[GroundLiteral]:
@@ -350,7 +334,7 @@ class LlmMctsSteps:
 
     def decide(self) -> Decision:
         trial, prior = self.trial, self.prior
-        search = trial.within_horizon(self.planner.settings.search)
+        search = trial.within_horizon(self.planner.settings.search.search_settings())
         trial.replans += 1
         trial.say(f"step {trial.done}: MCTS with an LLM prior, {search.budget} sims")
         tree = trial.tree_at(trial.episode.state) if trial.reuse_tree else None

@@ -18,6 +18,7 @@ from stalm.llm.cache import CachedBackend
 from stalm.llm.cache_file import ReplyCache
 from stalm.llm.prompt import PromptOptions
 from stalm.planners.llm_mcts import (
+    UNIFORM_WEIGHT,
     LlmMcts,
     LlmMctsPlanner,
     LLMPrior,
@@ -248,11 +249,13 @@ def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
     planner = build_planner("llm-mcts", settings_of(llm="http://127.0.0.1:9/v1#m"))
     method = planner.start
     assert isinstance(method, LlmMcts) and planner.name == "llm-mcts"
-    assert method.settings.search.budget == 35 and method.settings.search.c == 50.0
-    assert method.settings.samples == 5 and method.settings.uniform_weight == 0.5
+    search = method.settings.search.search_settings()
+    assert search.budget == 35 and search.c == 50.0 and method.settings.search.batch == 5
+    assert UNIFORM_WEIGHT == 0.5
     custom = build_llm_mcts(settings_of(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3), None)
     assert isinstance(custom.start, LlmMcts)
-    assert custom.start.settings.search.budget == 7 and custom.start.settings.samples == 3
+    assert custom.start.settings.search.search_settings().budget == 7
+    assert custom.start.settings.search.batch == 3
     assert planner.occlusion
     no_occlusion = settings_of(llm="http://127.0.0.1:9/v1#m", prompt__occlusion_predicates=False)
     assert not build_llm_mcts(no_occlusion, None).occlusion
