@@ -39,8 +39,7 @@ from stalm.planners.registry_rows import planner_rows
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.progress import Progress
-from stalm.proposers.language_model import LLMProposer
-from stalm.proposers.model_backend import llm_backend, use_constraint
+from stalm.proposers.language_model import model_proposer
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
 from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
 from stalm.search.policies import ValueFunction
@@ -372,6 +371,4 @@ class LlmMctsSteps:
 def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
     """The registry's builder: the configured (cached) backend, the paper's prompt and budget,
     N_batch replies per prior, tree reuse as the other tree planners have it."""
-    backend = llm_backend(settings)
-    proposer = LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
-    return LlmMctsPlanner(proposer, settings, progress)
+    return LlmMctsPlanner(model_proposer(settings), settings, progress)

@@ -33,8 +33,7 @@ from stalm.progress import Progress
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.feedback import FailedStep, failed_steps
 from stalm.proposers.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
-from stalm.proposers.language_model import LLMProposer
-from stalm.proposers.model_backend import llm_backend, use_constraint
+from stalm.proposers.language_model import model_proposer
 from stalm.proposers.noisy import InjectedPlan, NoisyProposer, injected_records
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer, check_proposer
 from stalm.search import ConcretePlan, ConcretizeResult, SearchPolicies, TaskPlan, concretize
@@ -342,5 +341,4 @@ def _plain_proposer(settings: RunSettings, kind: str) -> TaskPlanProposer:
             break_occlusion_cycles=settings.proposer.break_occlusion_cycles,
             needed_objects_only=settings.proposer.needed_objects_only,
         )
-    backend = llm_backend(settings)
-    return LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
+    return model_proposer(settings)
