@@ -1,23 +1,16 @@
 """LLM-MCTS (Zhao et al., 2024), the baseline of §4.2–4.3: MCTS whose prior asks a model.
 
 Every node the search creates gets a prior from the model when it is created (the expansion
-step of PUCT-style MCTS): the state's predicates are taken from the trial's predicate memo
-(computed from scratch for a state the trial has not seen), the paper's prompt for them is
-sent once for 5 replies, the first action of each parsed plan that is a legal
-action counts as a vote, and votes/5 is mixed 0.5 with uniform (the authors' construction).
-PUCT (:mod:`stalm.search.puct`, c = 50) then weighs each legal action by that prior, from the
-node's first selection on. So the model is called once per *new node* -- up to one call per
-simulation, N_budget = 35 calls per real step -- the defining cost of the method, which the
-paper blames for its time-outs (§4.3); every call, its tokens and its seconds go into the
-result, with the number of calls of each real step. Priors are kept per state within one
-tree (a state reached twice in a tree is one node). Between real steps the executed child's
-subtree is kept with its statistics and its nodes' priors, as for every online tree planner
-(``reuse_tree``, the settings tree's ``execution.reuse_tree``, on by default); a node the new
-step's search creates asks the model, as every new node does. With reuse off, each real step
-builds a new tree and asks again for every node.
-Everything else is STaLM's hybrid search without warm start: UCT over κ with progressive
-widening, random rollouts at new leaves, run online by
-:class:`~stalm.trial.online.OnlinePlanner` as every online method is.
+step of PUCT-style MCTS, :class:`LLMPrior`): the paper's prompt for the state's predicates is
+sent once for N_batch replies, the first action of each parsed plan that is a legal action
+counts as a vote, and votes/N_batch is mixed 0.5 with uniform (the authors' construction);
+PUCT (:mod:`stalm.search.puct`, c = 50) weighs each legal action by it. So the model is called
+once per *new node* -- up to N_budget = 35 calls per real step -- the defining cost of the
+method, which the paper blames for its time-outs (§4.3); every call, its tokens and its
+seconds go into the result. With ``execution.reuse_tree`` the executed child's subtree is kept
+with its nodes' priors, as for every online tree planner. Everything else is STaLM's hybrid
+search without warm start: UCT over κ with progressive widening, random rollouts at new
+leaves, run online by :class:`~stalm.trial.online.OnlinePlanner`.
 
 Determinism: each state's request is seeded from the trial seed and a stable digest of the state
 (never Python's salted ``hash``), so the same seed replays the same cached replies and, with
@@ -100,25 +93,17 @@ class LlmMctsDetails:
 class LLMPrior:
     """A :class:`~stalm.search.puct.PriorSource` that asks a task-plan proposer once per node.
 
-    The first time a state needs a prior in the current tree (when the search creates its
-    node, :class:`AskAtNewNodes`, or selects from the root): its literals are computed
-    (``literals_of``), the proposer is asked for ``samples`` task plans with a seed from
-    :func:`state_request_seed`, and the plans' first actions become
-    :func:`~stalm.search.puct.vote_prior`'s votes. The votes are kept for the rest of the
-    tree -- a state is one node of a tree, so it costs one query -- and forgotten by
-    :meth:`new_tree`: the next real step's tree asks again for every node it makes, as
-    LLM-MCTS pays a call for every new node.
+    The first time a state needs a prior in the current tree (its node is created,
+    :class:`AskAtNewNodes`, or it is the root), the proposer is asked for ``samples`` task
+    plans for its literals (``literals_of``) with a seed from :func:`state_request_seed`; the
+    plans' first actions are :func:`~stalm.search.puct.vote_prior`'s votes, kept until
+    :meth:`new_tree` or :meth:`keep_only` forgets them.
 
-    ``on_query`` gets every query's :class:`Proposal` (the planner records it in the trial,
-    which charges its seconds); ``timing`` keeps the query's wall time out of the phase
-    that asked (the tree search).
-    The deadline is checked before each new query: once it has passed, the prior is uniform
-    (and not kept) so the running simulation finishes quickly and the search returns; a
-    query already under way is never cut off, so a trial can overrun its budget by at most one
-    query. ``deadline`` reads the trial's deadline at each check (None: none), so what the
-    trial charges (a query answered from the reply cache moves it earlier by the time its
-    replies originally took, :meth:`Episode.charge`) holds here too, with no copy to keep in
-    step.
+    ``on_query`` gets every query's :class:`Proposal` (the trial records it and charges its
+    seconds); ``timing`` keeps the query's wall time out of the tree search's phase. Once
+    ``deadline()`` has passed (read at each check, so what the trial charges for cached
+    replies holds here too), the prior is uniform and not kept, so the search returns
+    quickly; a query under way is never cut off: a trial overruns by at most one query.
     """
 
     def __init__(

@@ -4,16 +4,11 @@ Without a plan that reached the goal they run (warm-started) UCT from the curren
 execute what the execution rule chooses (:func:`search`; STaLM w/o UCT takes the best plan's
 first action instead). UCT's step is only that (:class:`SearchStep`); STaLM's first gets task
 plans and Concretizes them (:class:`stalm.planners.stalm.StalmStep`). Each step fills a
-:class:`~stalm.trial.step_log.StepRecord` and reads the run's settings tree, whose
-``search.sims`` the planner's registry row has filled. Beyond the paper, the tree holds:
-
-* **tree reuse** (the authors' loop): the executed child's subtree is the next step's tree
-  (:meth:`stalm.trial.online.Trial.execute`), so statistics accumulate over the episode;
-* **the execution rule**: without a goal plan, 'progress' executes the highest-Q root action
-  from which the tree knows a way to more goal conjuncts than the root has, and while no
-  root action does, searches on from the same root (at most ``search_rounds`` searches: a
-  count, so that the same seed decides the same on any machine), rather than spending an
-  irreversible step of the horizon on a coin toss ('best_q', the authors' rule).
+:class:`~stalm.trial.step_log.StepRecord` and reads the run's settings tree (``search.sims``
+filled by the planner's registry row), with its two additions to the paper: tree reuse
+(:meth:`stalm.trial.online.Trial.execute`) and the 'progress' execution rule, which searches
+on from the same root rather than spend an irreversible step of the horizon on a coin toss
+(:func:`_best_promising_action`; the authors' 'best_q' does).
 """
 
 from __future__ import annotations
