@@ -272,20 +272,15 @@ def LlmMctsPlanner(
     """LLM-MCTS run online: search from the current state, execute, repeat. ``settings`` is
     the run's settings tree (None: :class:`RunSettings`' defaults, which ``stalm solve
     --planner llm-mcts`` runs; N_budget: its registry row's), N_batch replies per prior
-    (``search.batch``). The trial
-    computes the occlusion literals only for a prompt that shows them, and keeps the executed
-    child's subtree, with its nodes' priors, as the next step's tree with
-    ``execution.reuse_tree`` (the authors' loop, as for every online tree planner; off: a new
-    tree every real step whose nodes ask the model anew)."""
+    (``search.batch``). The trial computes the occlusion literals only for a prompt that
+    shows them."""
     run_settings = planner_rows()["llm-mcts"].settings_for(settings or RunSettings())
     return OnlinePlanner(
         "llm-mcts",
         run_settings,
         LlmMcts(proposer, run_settings, progress),
         progress,
-        rewards=run_settings.rewards,
         occlusion=run_settings.prompt.occlusion_predicates,
-        reuse_tree=run_settings.execution.reuse_tree,
     )
 
 

@@ -41,24 +41,22 @@ def tree_planner(
     *,
     leaf_occlusion: bool = False,
 ) -> OnlinePlanner:
-    """The online loop around a tree planner's steps, with the tree's R and tree reuse. The
-    trial computes PickOccludedBy/PlaceOccludedBy for the prompt (not for Table 4's arms whose
-    prompt does not show them, so those arms do not pay for motion planning they never use),
-    for the symbolic proposer (which plans with occlusions whatever the prompt options say),
-    for the noisy one (which needs them to drop the step that clears an occluder) and for a
-    leaf value that reads them (``leaf_occlusion``: Hcount)."""
+    """The online loop around a tree planner's steps. The trial computes PickOccludedBy and
+    PlaceOccludedBy for the prompt (not for Table 4's arms whose prompt does not show them,
+    so those arms do not pay for motion planning they never use), for the symbolic proposer
+    (which plans with occlusions whatever the prompt options say), for the noisy one (which
+    needs them to drop the step that clears an occluder) and for a leaf value that reads
+    them (``leaf_occlusion``: Hcount)."""
     return OnlinePlanner(
         name,
         settings,
         start,
         progress,
-        rewards=settings.rewards,
         occlusion=(
             leaf_occlusion
             or settings.proposer.kind != "llm"
             or settings.prompt.occlusion_predicates
         ),
-        reuse_tree=settings.execution.reuse_tree,
     )
 
 

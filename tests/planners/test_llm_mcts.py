@@ -266,9 +266,9 @@ def test_llm_mcts_reuses_the_tree_by_the_one_setting_of_every_tree_planner() -> 
     (execution.reuse_tree, --set reuse_tree=false) switches it off for all of them."""
     model = settings_of(llm="http://127.0.0.1:9/v1#m")
     for name in ("llm-mcts", "stalm", "uct", "uct-hcount"):
-        assert build_planner(name, model).reuse_tree, name
+        assert build_planner(name, model).settings.execution.reuse_tree, name
         off = settings_of(llm="http://127.0.0.1:9/v1#m", reuse_tree=False)
-        assert not build_planner(name, off).reuse_tree, name
+        assert not build_planner(name, off).settings.execution.reuse_tree, name
 
 
 def test_the_reused_subtree_keeps_the_n_and_q_it_had_before_the_step(problems, monkeypatch) -> None:

@@ -107,9 +107,9 @@ def _trial_shape(planner: OnlinePlanner) -> tuple[object, ...]:
         planner.name,
         settings.samplers,
         settings.predicates,
-        planner.rewards,
+        settings.rewards,
         planner.occlusion,
-        planner.reuse_tree,
+        settings.execution.reuse_tree,
     )
 
 

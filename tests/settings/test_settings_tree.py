@@ -87,8 +87,8 @@ REACHES = [
     ),
     ("search.sims", 9, "llm-mcts", lambda p: p.start.settings.search.search_settings().budget),
     ("search.batch", 3, "ep-saycan", lambda p: p.start.settings.search.batch),
-    ("rewards.goal", 50.0, "uct", lambda p: p.rewards.goal),
-    ("rewards.infeasible", -1.0, "llm-mcts", lambda p: p.rewards.infeasible),
+    ("rewards.goal", 50.0, "uct", lambda p: p.settings.rewards.goal),
+    ("rewards.infeasible", -1.0, "llm-mcts", lambda p: p.settings.rewards.infeasible),
     ("samplers.pick_tries", 5, "stalm", lambda p: p.settings.samplers.pick_tries),
     ("samplers.place_tries", 6, "pddlstream-adaptive", lambda p: p.samplers.place_tries),
     (
@@ -102,7 +102,7 @@ REACHES = [
     ("execution.step_share", 0.5, "stalm", lambda p: p.start.settings.execution.step_share),
     ("execution.feedback_rounds", 3, "stalm", lambda p: p.start.settings.execution.feedback_rounds),
     ("execution.search_rounds", 4, "uct", lambda p: p.start.settings.execution.search_rounds),
-    ("execution.reuse_tree", False, "llm-mcts", lambda p: p.reuse_tree),
+    ("execution.reuse_tree", False, "llm-mcts", lambda p: p.settings.execution.reuse_tree),
     (
         "proposer.goal_relations_only",
         False,
