@@ -28,7 +28,7 @@ from stalm.llm.problem_prompt import problem_prompt
 from stalm.llm.prompt import PromptOptions
 from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
-from stalm.proposers.model_backend import llm_backend, use_constraint
+from stalm.proposers.model_backend import use_constraint
 from stalm.search import TaskPlan, concretize
 from stalm.search.concretize import ConcretePlan
 from stalm.settings.tree import RunSettings
@@ -199,8 +199,3 @@ class ReplanningRounds:
             self.rounds,
             self.forced_steps,
         )
-
-
-def build_iterative_replanning(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
-    """The registry's builder: the configured (cached) backend and prompt options."""
-    return IterativeReplanningPlanner(llm_backend(settings), settings, progress)

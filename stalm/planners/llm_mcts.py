@@ -32,7 +32,6 @@ from stalm.planners.registry_rows import planner_rows
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.progress import Progress
-from stalm.proposers.language_model import model_proposer
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
 from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
 from stalm.search.policies import ValueFunction
@@ -346,9 +345,3 @@ class LlmMctsSteps:
         trial, name = self.trial, self.planner.proposer.name
         reused = tuple(trial.reused_root_visits) if trial.reuse_tree else None
         return LlmMctsDetails(name, self.prior.stats, tuple(self.calls_per_step), reused)
-
-
-def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
-    """The registry's builder: the configured (cached) backend, the paper's prompt and budget,
-    N_batch replies per prior, tree reuse as the other tree planners have it."""
-    return LlmMctsPlanner(model_proposer(settings), settings, progress)

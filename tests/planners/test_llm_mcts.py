@@ -22,7 +22,6 @@ from stalm.planners.llm_mcts import (
     LlmMcts,
     LlmMctsPlanner,
     LLMPrior,
-    build_llm_mcts,
     llm_mcts_policies,
 )
 from stalm.planners.registry import build_planner
@@ -252,13 +251,13 @@ def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
     search = method.settings.search.search_settings()
     assert search.budget == 35 and search.c == 50.0 and method.settings.search.batch == 5
     assert UNIFORM_WEIGHT == 0.5
-    custom = build_llm_mcts(settings_of(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3), None)
+    custom = build_planner("llm-mcts", settings_of(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3))
     assert isinstance(custom.start, LlmMcts)
     assert custom.start.settings.search.search_settings().budget == 7
     assert custom.start.settings.search.batch == 3
     assert planner.occlusion
     no_occlusion = settings_of(llm="http://127.0.0.1:9/v1#m", prompt__occlusion_predicates=False)
-    assert not build_llm_mcts(no_occlusion, None).occlusion
+    assert not build_planner("llm-mcts", no_occlusion).occlusion
 
 
 def test_llm_mcts_reuses_the_tree_by_the_one_setting_of_every_tree_planner() -> None:
