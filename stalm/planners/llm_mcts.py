@@ -112,7 +112,7 @@ class LLMPrior:
         literals_of: LiteralsOf,
         *,
         trial_seed: int,
-        samples: int = 5,
+        samples: int,
         uniform_weight: float = UNIFORM_WEIGHT,
         deadline: Callable[[], float] | None = None,
         progress: Progress | None = None,

@@ -59,6 +59,7 @@ def _prior(problem, backend, literals=None, seed: int = 0, deadline=None) -> LLM
         LLMProposer(backend),
         literals or SymbolicLiteralsDouble(),
         trial_seed=seed,
+        samples=5,
         deadline=deadline,
     )
 
@@ -331,6 +332,7 @@ def test_a_query_from_the_cache_is_charged_its_original_seconds_and_the_prior_se
         CachedProposerDouble(),
         SymbolicLiteralsDouble(),
         trial_seed=0,
+        samples=5,
         deadline=clock.read,
         on_query=clock.record_query,
     )
