@@ -94,9 +94,9 @@ def _llm_mcts(settings: RunSettings, progress: Progress | None) -> Planner:
 
 
 def _pddlstream_adaptive(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.pddlstream import build_pddlstream_adaptive
+    from stalm.planners.pddlstream import PDDLStreamPlanner
 
-    return build_pddlstream_adaptive(settings, progress)
+    return PDDLStreamPlanner(settings, progress)
 
 
 _BUILDERS: dict[str, Builder] = {
