@@ -18,7 +18,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
 from stalm.json_object import JsonObject, record_json
@@ -72,8 +71,7 @@ def failed_plan(plan: ConcretePlan) -> FailedPlan:
     kind = plan.failure or "partially_achieved_goal"
     reason = plan.detail or "the goal does not hold"
     if plan.failed_step is not None:
-        step = plan.steps[plan.failed_step]
-        why = step.kappa if isinstance(step.kappa, Infeasibility) else step.outcome.failure
+        why = plan.steps[plan.failed_step].infeasibility
         if why is not None:
             reason = why.detail if why.kind == "precondition" else str(why)
     return FailedPlan(plan.task_plan.actions, kind, reason, plan.failed_step)
