@@ -25,8 +25,8 @@ from stalm.trial.online import OnlinePlanner, Trial
 
 @dataclass(frozen=True)
 class UctSteps:
-    """UCT's part of a planner: its search's settings and its leaf value (a random rollout,
-    or Hcount); called at a trial's start, its steps."""
+    """UCT's part of a planner: the run's settings tree (N_budget filled by its row) and its
+    leaf value (a random rollout, or Hcount); called at a trial's start, its steps."""
 
     settings: RunSettings
     hcount: bool = False
