@@ -13,7 +13,7 @@ from rich.console import Console
 from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
 from stalm.errors import StalmError
-from stalm.files import read_json_file, write_replacing
+from stalm.files import write_replacing
 from stalm.trial.export import DEFAULT_RATE, RATE_RANGE, check_rate
 from stalm.world.problem_record import RECORD_PROBLEM_HELP, record_problem
 
@@ -54,13 +54,12 @@ def export_command(
 
     The plan is replayed in a fresh scene first; a plan that does not replay is refused."""
     from stalm.trial.export import export_result
+    from stalm.trial.records import read_result
 
     target = output if output is not None else default_output(result_file)
     check_output_file(target, "--output")
     check_rate(rate)
-    data = read_json_file(result_file, "result file", finite=True)  # bounded, finite
-    if not isinstance(data, dict):
-        raise StalmError(f"{result_file}: not a stalm result (not a JSON object)")
+    data = read_result(result_file)  # bounded, finite, an object
     loaded = record_problem(data, str(result_file), problem, result_file.parent)
     with console.status("replaying and timing the plan..."):
         exported, warnings = export_result(loaded, data, rate, source=result_file.name)

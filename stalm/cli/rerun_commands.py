@@ -27,37 +27,12 @@ from stalm.cli.display import shown
 from stalm.cli.paths import check_output_file
 from stalm.cli.solve_output import console, note_embedded, out, solve_and_report
 from stalm.errors import StalmError
-from stalm.files import MAX_RESULT_FILE_BYTES, load_json, read_text
 from stalm.geometry.tolerance import CONTINUOUS_TOLERANCE, close_enough
+from stalm.trial.records import read_record
 from stalm.world.problem_record import RECORD_PROBLEM_HELP, record_problem
 
 commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
-
-
-def read_record(path: Path, key: str | None) -> dict[str, Any]:
-    """The record in ``path``: a JSON object, or the line of a JSON-lines file whose key
-    starts with ``key`` (needed when the file holds more than one)."""
-    text = read_text(path, MAX_RESULT_FILE_BYTES, "result file")  # regular, bounded
-    try:
-        records = [load_json(text, str(path), finite=True)]
-    except StalmError:
-        records = [
-            load_json(line, f"{path}:{number}", finite=True)
-            for number, line in enumerate(text.splitlines(), start=1)
-            if line.strip()
-        ]
-    records = [r for r in records if isinstance(r, dict)]
-    if key is not None:
-        records = [r for r in records if str(r.get("key", "")).startswith(key)]
-    if len(records) != 1:
-        if not records:
-            raise StalmError(
-                f"{path}: no record" + (f" with a key starting {key!r}" if key else "")
-            )
-        sample = ", ".join(str(r.get("key", "?"))[:8] for r in records[:3])
-        raise StalmError(f"{path}: {len(records)} records; choose one with --key (e.g. {sample})")
-    return records[0]
 
 
 def first_difference(recorded: list[Any], now: list[Any]) -> int | None:

@@ -23,7 +23,6 @@ from stalm.cli.solve_output import (
     write_plan_gif,
 )
 from stalm.errors import StalmError
-from stalm.files import read_json_file
 from stalm.viz.sizes import GIF_SIZE, MAX_SIZE, MIN_SIZE, check_size
 from stalm.world.physics_check import SETTLE_SECONDS, TOLERANCE_DEG, TOLERANCE_M
 from stalm.world.problem import load_problem
@@ -295,6 +294,7 @@ def replay_command(
     ] = TOLERANCE_DEG,
 ) -> None:
     """Re-execute a saved plan in a fresh scene and check that it reaches the goal."""
+    from stalm.trial.records import read_result
     from stalm.trial.replay import replay_result_json
 
     check_tolerance(physics_tolerance_m, "--physics-tolerance-m")
@@ -302,9 +302,7 @@ def replay_command(
     if gif is not None:
         check_output_file(gif, "--gif")
         check_size(gif_size, "--gif-size")
-    data = read_json_file(result_file, "result file", finite=True)  # bounded, finite
-    if not isinstance(data, dict):
-        raise StalmError(f"{result_file}: not a stalm result (not a JSON object)")
+    data = read_result(result_file)  # bounded, finite, an object
     loaded = record_problem(data, str(result_file), problem, result_file.parent)
     report = replay_result_json(loaded, data)
     for warning in report.warnings:

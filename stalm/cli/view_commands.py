@@ -46,10 +46,10 @@ def view_command(
 
     The page also shows the plan's continuous parameters and, per real step, the task plans,
     why each failed, and the search tree."""
-    from stalm.viz.view_data import load_result
+    from stalm.trial.records import read_result
 
     page = output if output is not None else result_file.with_suffix(".html")
     check_output_file(page, "--output")
-    data = load_result(result_file)
+    data = read_result(result_file)
     loaded = record_problem(data, str(result_file), problem, result_file.parent)
     write_view_page(loaded, data, page, source=result_file.name)

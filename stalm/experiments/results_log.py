@@ -14,7 +14,8 @@ Reading never stops at a bad line: a line that is not UTF-8, not JSON, or not a 
 :func:`record_problem`) is skipped and named (``file:line: why``, the why naming the field) in
 :attr:`LoadedRecords.problems`; every other record is kept. This is the one reader of records
 (resuming an experiment and the report both read through it), so a record the report counts
-has been checked as a problem file is: no count of objects that is no count, no negative or
+is in today's shape (:func:`stalm.trial.records.upgraded`) and has been checked as a problem
+file is: no count of objects that is no count, no negative or
 astronomical time.
 
 A trial is finished when its last record is not an ``error`` (an exception in a planner):
@@ -33,6 +34,7 @@ from typing import Any
 
 from stalm.errors import StalmError
 from stalm.files import short_repr
+from stalm.trial.records import upgraded
 
 REQUIRED_FIELDS: dict[str, type] = {
     "key": str,
@@ -160,7 +162,7 @@ def read_records(path: Path) -> LoadedRecords:
         if record is None:
             problems.append(f"{path}:{number}: {problem}")
             continue
-        records.append(record)
+        records.append(upgraded(record))
     return LoadedRecords(tuple(records), skipped_partial_line=partial, problems=tuple(problems))
 
 

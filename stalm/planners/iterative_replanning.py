@@ -18,7 +18,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
 from stalm.json_object import JsonObject, record_json
@@ -28,7 +27,7 @@ from stalm.llm.problem_prompt import problem_prompt
 from stalm.llm.prompt import PromptOptions
 from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
-from stalm.proposers.model_backend import llm_backend, use_constraint
+from stalm.proposers.model_backend import use_constraint
 from stalm.search import TaskPlan, concretize
 from stalm.search.concretize import ConcretePlan
 from stalm.settings.tree import RunSettings
@@ -72,8 +71,7 @@ def failed_plan(plan: ConcretePlan) -> FailedPlan:
     kind = plan.failure or "partially_achieved_goal"
     reason = plan.detail or "the goal does not hold"
     if plan.failed_step is not None:
-        step = plan.steps[plan.failed_step]
-        why = step.kappa if isinstance(step.kappa, Infeasibility) else step.outcome.failure
+        why = plan.steps[plan.failed_step].infeasibility
         if why is not None:
             reason = why.detail if why.kind == "precondition" else str(why)
     return FailedPlan(plan.task_plan.actions, kind, reason, plan.failed_step)
@@ -199,8 +197,3 @@ class ReplanningRounds:
             self.rounds,
             self.forced_steps,
         )
-
-
-def build_iterative_replanning(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
-    """The registry's builder: the configured (cached) backend and prompt options."""
-    return IterativeReplanningPlanner(llm_backend(settings), settings, progress)

@@ -1,23 +1,16 @@
 """LLM-MCTS (Zhao et al., 2024), the baseline of §4.2–4.3: MCTS whose prior asks a model.
 
 Every node the search creates gets a prior from the model when it is created (the expansion
-step of PUCT-style MCTS): the state's predicates are taken from the trial's predicate memo
-(computed from scratch for a state the trial has not seen), the paper's prompt for them is
-sent once for 5 replies, the first action of each parsed plan that is a legal
-action counts as a vote, and votes/5 is mixed 0.5 with uniform (the authors' construction).
-PUCT (:mod:`stalm.search.puct`, c = 50) then weighs each legal action by that prior, from the
-node's first selection on. So the model is called once per *new node* -- up to one call per
-simulation, N_budget = 35 calls per real step -- the defining cost of the method, which the
-paper blames for its time-outs (§4.3); every call, its tokens and its seconds go into the
-result, with the number of calls of each real step. Priors are kept per state within one
-tree (a state reached twice in a tree is one node). Between real steps the executed child's
-subtree is kept with its statistics and its nodes' priors, as for every online tree planner
-(``reuse_tree``, the settings tree's ``execution.reuse_tree``, on by default); a node the new
-step's search creates asks the model, as every new node does. With reuse off, each real step
-builds a new tree and asks again for every node.
-Everything else is STaLM's hybrid search without warm start: UCT over κ with progressive
-widening, random rollouts at new leaves, run online by
-:class:`~stalm.trial.online.OnlinePlanner` as every online method is.
+step of PUCT-style MCTS, :class:`LLMPrior`): the paper's prompt for the state's predicates is
+sent once for N_batch replies, the first action of each parsed plan that is a legal action
+counts as a vote, and votes/N_batch is mixed 0.5 with uniform (the authors' construction);
+PUCT (:mod:`stalm.search.puct`, c = 50) weighs each legal action by it. So the model is called
+once per *new node* -- up to N_budget = 35 calls per real step -- the defining cost of the
+method, which the paper blames for its time-outs (§4.3); every call, its tokens and its
+seconds go into the result. With ``execution.reuse_tree`` the executed child's subtree is kept
+with its nodes' priors, as for every online tree planner. Everything else is STaLM's hybrid
+search without warm start: UCT over κ with progressive widening, random rollouts at new
+leaves, run online by :class:`~stalm.trial.online.OnlinePlanner`.
 
 Determinism: each state's request is seeded from the trial seed and a stable digest of the state
 (never Python's salted ``hash``), so the same seed replays the same cached replies and, with
@@ -39,8 +32,6 @@ from stalm.planners.registry_rows import planner_rows
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.progress import Progress
-from stalm.proposers.language_model import LLMProposer
-from stalm.proposers.model_backend import llm_backend, use_constraint
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
 from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
 from stalm.search.policies import ValueFunction
@@ -55,6 +46,10 @@ from stalm.world.state import State
 
 LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
 QueryHook = Callable[[Proposal], None]
+
+UNIFORM_WEIGHT = 0.5
+"""Weight of the uniform distribution mixed into the prior's votes (the authors' 0.5), a
+constant of the method that the settings tree does not hold."""
 
 
 @dataclass(frozen=True)
@@ -97,25 +92,17 @@ class LlmMctsDetails:
 class LLMPrior:
     """A :class:`~stalm.search.puct.PriorSource` that asks a task-plan proposer once per node.
 
-    The first time a state needs a prior in the current tree (when the search creates its
-    node, :class:`AskAtNewNodes`, or selects from the root): its literals are computed
-    (``literals_of``), the proposer is asked for ``samples`` task plans with a seed from
-    :func:`state_request_seed`, and the plans' first actions become
-    :func:`~stalm.search.puct.vote_prior`'s votes. The votes are kept for the rest of the
-    tree -- a state is one node of a tree, so it costs one query -- and forgotten by
-    :meth:`new_tree`: the next real step's tree asks again for every node it makes, as
-    LLM-MCTS pays a call for every new node.
+    The first time a state needs a prior in the current tree (its node is created,
+    :class:`AskAtNewNodes`, or it is the root), the proposer is asked for ``samples`` task
+    plans for its literals (``literals_of``) with a seed from :func:`state_request_seed`; the
+    plans' first actions are :func:`~stalm.search.puct.vote_prior`'s votes, kept until
+    :meth:`new_tree` or :meth:`keep_only` forgets them.
 
-    ``on_query`` gets every query's :class:`Proposal` (the planner records it in the trial,
-    which charges its seconds); ``timing`` keeps the query's wall time out of the phase
-    that asked (the tree search).
-    The deadline is checked before each new query: once it has passed, the prior is uniform
-    (and not kept) so the running simulation finishes quickly and the search returns; a
-    query already under way is never cut off, so a trial can overrun its budget by at most one
-    query. ``deadline`` reads the trial's deadline at each check (None: none), so what the
-    trial charges (a query answered from the reply cache moves it earlier by the time its
-    replies originally took, :meth:`Episode.charge`) holds here too, with no copy to keep in
-    step.
+    ``on_query`` gets every query's :class:`Proposal` (the trial records it and charges its
+    seconds); ``timing`` keeps the query's wall time out of the tree search's phase. Once
+    ``deadline()`` has passed (read at each check, so what the trial charges for cached
+    replies holds here too), the prior is uniform and not kept, so the search returns
+    quickly; a query under way is never cut off: a trial overruns by at most one query.
     """
 
     def __init__(
@@ -125,8 +112,8 @@ class LLMPrior:
         literals_of: LiteralsOf,
         *,
         trial_seed: int,
-        samples: int = 5,
-        uniform_weight: float = 0.5,
+        samples: int,
+        uniform_weight: float = UNIFORM_WEIGHT,
         deadline: Callable[[], float] | None = None,
         progress: Progress | None = None,
         on_query: QueryHook | None = None,
@@ -264,31 +251,12 @@ def llm_mcts_policies(settings: SearchSettings, prior: LLMPrior) -> SearchPolici
 
 
 @dataclass(frozen=True)
-class LlmMctsSettings:
-    """What LLM-MCTS reads of a run's settings tree (§4.2: N_budget = 35 simulations per real
-    step, c = 50, N_batch = 5 samples per prior), built by :meth:`of`; the tree holds the
-    defaults of all but ``uniform_weight``, a constant of the method the tree does not hold."""
-
-    search: SearchSettings
-    """The search's constants with LLM-MCTS's N_budget (``search``)."""
-    samples: int
-    """Replies per prior (``search.batch``)."""
-    uniform_weight: float = 0.5
-    """Weight of the uniform distribution mixed into the votes (the authors' 0.5)."""
-
-    @classmethod
-    def of(cls, settings: RunSettings) -> LlmMctsSettings:
-        budget = planner_rows()["llm-mcts"].budget(settings)
-        return cls(search=settings.search.search_settings(budget), samples=settings.search.batch)
-
-
-@dataclass(frozen=True)
 class LlmMcts:
     """LLM-MCTS's part of a planner: the proposer its prior asks, what it reads of the
     settings tree, where its prior reports progress; called at a trial's start, its steps."""
 
     proposer: TaskPlanProposer
-    settings: LlmMctsSettings
+    settings: RunSettings
     progress: Progress | None = None
 
     def __call__(self, trial: Trial) -> LlmMctsSteps:
@@ -302,21 +270,16 @@ def LlmMctsPlanner(
 ) -> OnlinePlanner:
     """LLM-MCTS run online: search from the current state, execute, repeat. ``settings`` is
     the run's settings tree (None: :class:`RunSettings`' defaults, which ``stalm solve
-    --planner llm-mcts`` runs); its part reads :class:`LlmMctsSettings` of it. The trial
-    computes the occlusion literals only for a prompt that shows them, and keeps the executed
-    child's subtree, with its nodes' priors, as the next step's tree with
-    ``execution.reuse_tree`` (the authors' loop, as for every online tree planner; off: a new
-    tree every real step whose nodes ask the model anew)."""
-    run_settings = settings or RunSettings()
-    view = LlmMctsSettings.of(run_settings)
+    --planner llm-mcts`` runs; N_budget: its registry row's), N_batch replies per prior
+    (``search.batch``). The trial computes the occlusion literals only for a prompt that
+    shows them."""
+    run_settings = planner_rows()["llm-mcts"].settings_for(settings or RunSettings())
     return OnlinePlanner(
         "llm-mcts",
         run_settings,
-        LlmMcts(proposer, view, progress),
+        LlmMcts(proposer, run_settings, progress),
         progress,
-        rewards=run_settings.rewards,
         occlusion=run_settings.prompt.occlusion_predicates,
-        reuse_tree=run_settings.execution.reuse_tree,
     )
 
 
@@ -333,14 +296,13 @@ class LlmMctsSteps:
             planner.proposer,
             self._literals,
             trial_seed=trial.seed,
-            samples=settings.samples,
-            uniform_weight=settings.uniform_weight,
+            samples=settings.search.batch,
             deadline=lambda: trial.episode.deadline,
             progress=planner.progress,
             on_query=trial.episode.record_query,
             timing=trial.episode.clock,
         )
-        self.policies = llm_mcts_policies(settings.search, self.prior)
+        self.policies = llm_mcts_policies(settings.search.search_settings(), self.prior)
         self.calls_per_step: list[int] = []
 
     def _literals(self, state: State) -> frozenset[GroundLiteral]:
@@ -350,7 +312,7 @@ class LlmMctsSteps:
 
     def decide(self) -> Decision:
         trial, prior = self.trial, self.prior
-        search = trial.within_horizon(self.planner.settings.search)
+        search = trial.within_horizon(self.planner.settings.search.search_settings())
         trial.replans += 1
         trial.say(f"step {trial.done}: MCTS with an LLM prior, {search.budget} sims")
         tree = trial.tree_at(trial.episode.state) if trial.reuse_tree else None
@@ -383,11 +345,3 @@ class LlmMctsSteps:
         trial, name = self.trial, self.planner.proposer.name
         reused = tuple(trial.reused_root_visits) if trial.reuse_tree else None
         return LlmMctsDetails(name, self.prior.stats, tuple(self.calls_per_step), reused)
-
-
-def build_llm_mcts(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
-    """The registry's builder: the configured (cached) backend, the paper's prompt and budget,
-    N_batch replies per prior, tree reuse as the other tree planners have it."""
-    backend = llm_backend(settings)
-    proposer = LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
-    return LlmMctsPlanner(proposer, settings, progress)

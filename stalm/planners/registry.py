@@ -19,6 +19,7 @@ from dataclasses import replace
 from stalm.errors import StalmError
 from stalm.planners.registry_rows import PlannerRow, planner_rows
 from stalm.progress import Progress
+from stalm.proposers.model_backend import llm_backend
 from stalm.settings.tree import RunSettings
 from stalm.trial.result import Planner
 from stalm.world.problem import Problem
@@ -74,27 +75,28 @@ def _uct_hcount(settings: RunSettings, progress: Progress | None) -> Planner:
 
 
 def _ep_saycan(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.saycan import build_ep_saycan
+    from stalm.planners.saycan import EpSayCanPlanner
 
-    return build_ep_saycan(settings, progress)
+    return EpSayCanPlanner(llm_backend(settings), settings, progress)
 
 
 def _iterative_replanning(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.iterative_replanning import build_iterative_replanning
+    from stalm.planners.iterative_replanning import IterativeReplanningPlanner
 
-    return build_iterative_replanning(settings, progress)
+    return IterativeReplanningPlanner(llm_backend(settings), settings, progress)
 
 
 def _llm_mcts(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.llm_mcts import build_llm_mcts
+    from stalm.planners.llm_mcts import LlmMctsPlanner
+    from stalm.proposers.language_model import model_proposer
 
-    return build_llm_mcts(settings, progress)
+    return LlmMctsPlanner(model_proposer(settings), settings, progress)
 
 
 def _pddlstream_adaptive(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.pddlstream import build_pddlstream_adaptive
+    from stalm.planners.pddlstream import PDDLStreamPlanner
 
-    return build_pddlstream_adaptive(settings, progress)
+    return PDDLStreamPlanner(settings, progress)
 
 
 _BUILDERS: dict[str, Builder] = {

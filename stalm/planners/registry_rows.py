@@ -32,13 +32,6 @@ class PlannerRow:
             return settings
         return replace(settings, search=replace(settings.search, sims=self.sims))
 
-    def budget(self, settings: RunSettings) -> int:
-        """N_budget under ``settings``: ``search.sims``, else this row's."""
-        sims = self.settings_for(settings).search.sims
-        if sims is None:
-            raise ValueError(f"the planner {self.name} runs no tree search: it has no N_budget")
-        return sims
-
 
 ROWS: tuple[PlannerRow, ...] = (
     PlannerRow(

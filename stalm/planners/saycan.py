@@ -40,7 +40,7 @@ from stalm.llm.saycan_prompt import saycan_prompt
 from stalm.predicates.literals import GroundLiteral
 from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
-from stalm.proposers.model_backend import llm_backend, use_constraint
+from stalm.proposers.model_backend import use_constraint
 from stalm.search.puct import vote_prior
 from stalm.settings.tree import RunSettings
 from stalm.trial.episode import Episode
@@ -346,8 +346,3 @@ def EpSayCanPlanner(
     run_settings = settings or RunSettings()
     method = SayCan(backend, use_constraint(run_settings, backend), run_settings)
     return OnlinePlanner("ep-saycan", run_settings, method, progress)
-
-
-def build_ep_saycan(settings: RunSettings, progress: Progress | None) -> OnlinePlanner:
-    """The registry's builder: the configured (cached) backend, N_batch and κ tries."""
-    return EpSayCanPlanner(llm_backend(settings), settings, progress)

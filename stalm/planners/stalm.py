@@ -27,20 +27,13 @@ from stalm.domain.params import Action
 from stalm.errors import StalmError
 from stalm.planners.registry_rows import planner_rows
 from stalm.planners.tree_details import TreeDetails
-from stalm.planners.tree_step import (
-    StalmSettings,
-    begin_step,
-    search,
-    tree_details,
-    tree_planner,
-)
+from stalm.planners.tree_step import begin_step, search, tree_details, tree_planner
 from stalm.predicates.literals import GroundLiteral
 from stalm.progress import Progress
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.feedback import FailedStep, failed_steps
 from stalm.proposers.feedback_memory import FeedbackMemory, grounded_in_tree, grounded_steps
-from stalm.proposers.language_model import LLMProposer
-from stalm.proposers.model_backend import llm_backend, use_constraint
+from stalm.proposers.language_model import model_proposer
 from stalm.proposers.noisy import InjectedPlan, NoisyProposer, injected_records
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer, check_proposer
 from stalm.search import ConcretePlan, ConcretizeResult, SearchPolicies, TaskPlan, concretize
@@ -49,7 +42,7 @@ from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import stalm_proposal_seed
 from stalm.trial.step_log import RoundLessons, StepRecord, proposal_record
 
-__all__ = ["StalmPlanner", "StalmSettings", "StalmStep", "StalmSteps"]
+__all__ = ["StalmPlanner", "StalmStep", "StalmSteps"]
 
 log = logging.getLogger(__name__)
 """Each proposal round's plans and what Concretize made of them, at INFO."""
@@ -66,7 +59,7 @@ class StalmStep:
     queries, noise, the step log) is its :class:`ProposalAccount`'s."""
 
     trial: Trial
-    settings: StalmSettings
+    settings: RunSettings
     policies: SearchPolicies
     account: ProposalAccount
     """The proposer, asked through the record of its queries."""
@@ -95,14 +88,15 @@ class StalmStep:
         Concretize(TaskPlans, s, h). With feedback, the steps Concretize found infeasible are
         learned and the proposer asked again (at most ``feedback_rounds`` times) while it
         offers plans not yet tried in this step."""
-        trial, settings, account = self.trial, self.settings, self.account
+        trial, execution, account = self.trial, self.settings.execution, self.account
+        learns = self.settings.feedback()
         trial.say(f"step {trial.done}: predicates")
         literals = trial.episode.predicates().literals
-        step_end = trial.share_end(settings.step_share)
+        step_end = trial.share_end(execution.step_share)
         plans: list[ConcretePlan] = []
         tried: set[tuple[DiscreteAction, ...]] = set()
-        for round_ in range(settings.feedback_rounds if settings.feedback else 1):
-            feedback = self.memory.holding_in(trial.episode.state) if settings.feedback else ()
+        for round_ in range(execution.feedback_rounds if learns else 1):
+            feedback = self.memory.holding_in(trial.episode.state) if learns else ()
             proposal = account.query(self.create_prompt(literals, feedback))
             if trial.episode.out_of_time():
                 return plans, None
@@ -111,7 +105,7 @@ class StalmStep:
             plans.extend(concrete.plans)
             if concrete.success and concrete.solution is not None:
                 return plans, concrete.solution
-            if not settings.feedback or not proposal.plans:
+            if not learns or not proposal.plans:
                 break
             record.learned(self.learn(concrete))
             fresh = {plan.task_plan.actions for plan in concrete.plans} - tried
@@ -132,7 +126,7 @@ class StalmStep:
             episode.problem,
             episode.state,
             literals,
-            self.settings.n_batch,
+            self.settings.search.batch,
             stalm_proposal_seed(self.trial.seed, self.account.proposals),
             deadline=episode.deadline,
             feedback=feedback,
@@ -154,8 +148,8 @@ class StalmStep:
                 trial.rng,
                 depth0=trial.done,
                 horizon=trial.episode.problem.horizon,
-                kappa_tries=settings.kappa_tries,
-                backtracks=settings.backtracks,
+                kappa_tries=settings.execution.kappa_tries,
+                backtracks=settings.backtracks(),
             )
 
     def learn(self, concrete: ConcretizeResult) -> RoundLessons:
@@ -171,7 +165,9 @@ class StalmStep:
         account = self.account
         noisy = account.proposer if isinstance(account.proposer, NoisyProposer) else None
         return replace(
-            tree_details(self.trial, self.settings, self.step_log),
+            tree_details(
+                self.trial, self.settings, self.step_log, feedback=self.settings.feedback()
+            ),
             proposer=account.proposer.name,
             proposals=account.proposals,
             feedback_steps_learned=len(self.memory.steps),
@@ -187,7 +183,7 @@ def warm_started_search(
     that forbid them."""
     chosen = search(step.trial, step.settings, step.policies, plans, record)
     tree = step.trial.tree
-    if step.settings.feedback and tree is not None:
+    if step.settings.feedback() and tree is not None:
         problem = step.trial.episode.problem
         record.rules_refuted_by_tree = step.memory.observe(grounded_in_tree(problem, tree))
     return chosen
@@ -275,17 +271,17 @@ class StalmSteps:
     what they execute without a goal plan; called at a trial's start, its steps."""
 
     proposer: TaskPlanProposer
-    settings: StalmSettings
+    settings: RunSettings
     no_goal_plan: NoGoalPlan = warm_started_search
 
     def __call__(self, trial: Trial) -> StalmStep:
         proposer = self.proposer
-        if self.settings.feedback and not proposer.takes_feedback:
+        if self.settings.feedback() and not proposer.takes_feedback:
             raise StalmError(
                 f"the proposer {proposer.name} takes no feedback (its takes_feedback is false): "
                 "switch feedback off"
             )
-        policies = SearchPolicies.from_settings(self.settings.search)
+        policies = SearchPolicies.from_settings(self.settings.search.search_settings())
         account = ProposalAccount(trial, proposer)
         return StalmStep(trial, self.settings, policies, account, self.no_goal_plan)
 
@@ -307,10 +303,11 @@ def StalmPlanner(
     The registry builds STaLM w/o UCT with its ``name`` and :func:`best_prefix_first_action`.
     """
     check_proposer(proposer)
-    run_settings = with_proposer_kind(settings or RunSettings(), proposer)
-    budget = planner_rows()["stalm"].budget(run_settings)  # STaLM w/o UCT's row says the same
-    view = StalmSettings.of(run_settings, budget, proposes=True)
-    steps = StalmSteps(proposer, view, no_goal_plan)
+    # N_budget: STaLM's row (STaLM w/o UCT's says the same)
+    run_settings = planner_rows()["stalm"].settings_for(
+        with_proposer_kind(settings or RunSettings(), proposer)
+    )
+    steps = StalmSteps(proposer, run_settings, no_goal_plan)
     return tree_planner(name, run_settings, steps, progress)
 
 
@@ -344,5 +341,4 @@ def _plain_proposer(settings: RunSettings, kind: str) -> TaskPlanProposer:
             break_occlusion_cycles=settings.proposer.break_occlusion_cycles,
             needed_objects_only=settings.proposer.needed_objects_only,
         )
-    backend = llm_backend(settings)
-    return LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
+    return model_proposer(settings)

@@ -4,16 +4,11 @@ Without a plan that reached the goal they run (warm-started) UCT from the curren
 execute what the execution rule chooses (:func:`search`; STaLM w/o UCT takes the best plan's
 first action instead). UCT's step is only that (:class:`SearchStep`); STaLM's first gets task
 plans and Concretizes them (:class:`stalm.planners.stalm.StalmStep`). Each step fills a
-:class:`~stalm.trial.step_log.StepRecord`. :class:`StalmSettings` is what they read of the
-run's settings tree, which holds the paper's values and what this implementation adds:
-
-* **tree reuse** (the authors' loop): the executed child's subtree is the next step's tree
-  (:meth:`stalm.trial.online.Trial.execute`), so statistics accumulate over the episode;
-* **the execution rule**: without a goal plan, 'progress' executes the highest-Q root action
-  from which the tree knows a way to more goal conjuncts than the root has, and while no
-  root action does, searches on from the same root (at most ``search_rounds`` searches: a
-  count, so that the same seed decides the same on any machine), rather than spending an
-  irreversible step of the horizon on a coin toss ('best_q', the authors' rule).
+:class:`~stalm.trial.step_log.StepRecord` and reads the run's settings tree (``search.sims``
+filled by the planner's registry row), with its two additions to the paper: tree reuse
+(:meth:`stalm.trial.online.Trial.execute`) and the 'progress' execution rule, which searches
+on from the same root rather than spend an irreversible step of the horizon on a coin toss
+(:func:`_best_promising_action`; the authors' 'best_q' does).
 """
 
 from __future__ import annotations
@@ -27,59 +22,15 @@ from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
 from stalm.planners.tree_details import HcountLeaves, TreeDetails, TreeSettingsRecord
 from stalm.progress import Progress
-from stalm.search import ConcretePlan, SearchPolicies, SearchSettings, SearchTree, warm_started_uct
+from stalm.search import ConcretePlan, SearchPolicies, SearchTree, warm_started_uct
 from stalm.search.hcount import HcountLeafValue
-from stalm.settings.tree import ExecutionRule, RunSettings
+from stalm.settings.tree import RunSettings
 from stalm.trial.online import Decision, OnlinePlanner, StartSteps, Trial
 from stalm.trial.step_log import DECISIONS, StepRecord, tree_record, warm_edges
 from stalm.world.state import State
 
 log = logging.getLogger(__name__)
 """Each real step's search and the rule that chose what it executes, at INFO."""
-
-
-@dataclass(frozen=True)
-class StalmSettings:
-    """What the tree planners read of a run's settings tree, resolved for one planner: a view
-    with no defaults of its own (:meth:`of`), so a planner built by hand runs what ``stalm
-    solve`` runs. Each field is explained where the tree declares it."""
-
-    n_batch: int
-    """N_batch (``search.batch``)."""
-    search: SearchSettings
-    """The search's constants with this planner's N_budget (``search``)."""
-    feedback: bool
-    """Geometric feedback (``execution.feedback``, resolved; never for UCT)."""
-    feedback_rounds: int
-    """``execution.feedback_rounds``."""
-    search_rounds: int
-    """``execution.search_rounds``."""
-    step_share: float
-    """``execution.step_share``."""
-    execution: ExecutionRule
-    """``execution.rule``."""
-    kappa_tries: int
-    """``execution.kappa_tries``."""
-    backtracks: int
-    """``execution.backtracks``, resolved."""
-
-    @classmethod
-    def of(cls, settings: RunSettings, budget: int, *, proposes: bool) -> StalmSettings:
-        """What a tree planner with N_budget ``budget`` reads from ``settings`` (a planner that
-        ``proposes`` no task plans -- UCT -- gets no feedback)."""
-        feedback = settings.feedback()
-        execution = settings.execution
-        return cls(
-            n_batch=settings.search.batch,
-            search=settings.search.search_settings(budget),
-            feedback=feedback and proposes,
-            feedback_rounds=execution.feedback_rounds,
-            search_rounds=execution.search_rounds,
-            step_share=execution.step_share,
-            execution=execution.rule,
-            kappa_tries=execution.kappa_tries,
-            backtracks=execution.backtracks_for(feedback),
-        )
 
 
 def tree_planner(
@@ -90,24 +41,22 @@ def tree_planner(
     *,
     leaf_occlusion: bool = False,
 ) -> OnlinePlanner:
-    """The online loop around a tree planner's steps, with the tree's R and tree reuse. The
-    trial computes PickOccludedBy/PlaceOccludedBy for the prompt (not for Table 4's arms whose
-    prompt does not show them, so those arms do not pay for motion planning they never use),
-    for the symbolic proposer (which plans with occlusions whatever the prompt options say),
-    for the noisy one (which needs them to drop the step that clears an occluder) and for a
-    leaf value that reads them (``leaf_occlusion``: Hcount)."""
+    """The online loop around a tree planner's steps. The trial computes PickOccludedBy and
+    PlaceOccludedBy for the prompt (not for Table 4's arms whose prompt does not show them,
+    so those arms do not pay for motion planning they never use), for the symbolic proposer
+    (which plans with occlusions whatever the prompt options say), for the noisy one (which
+    needs them to drop the step that clears an occluder) and for a leaf value that reads
+    them (``leaf_occlusion``: Hcount)."""
     return OnlinePlanner(
         name,
         settings,
         start,
         progress,
-        rewards=settings.rewards,
         occlusion=(
             leaf_occlusion
             or settings.proposer.kind != "llm"
             or settings.prompt.occlusion_predicates
         ),
-        reuse_tree=settings.execution.reuse_tree,
     )
 
 
@@ -117,7 +66,7 @@ class SearchStep:
     chooses (:func:`search`, the end of every tree planner's step)."""
 
     trial: Trial
-    settings: StalmSettings
+    settings: RunSettings
     policies: SearchPolicies
     hcount: HcountLeafValue | None = None
     """Hcount's leaf value, whose count of how its predicates came the details record."""
@@ -131,7 +80,7 @@ class SearchStep:
         return record.executes(search(self.trial, self.settings, self.policies, [], record))
 
     def details(self) -> TreeDetails:
-        details = tree_details(self.trial, self.settings, self.step_log)
+        details = tree_details(self.trial, self.settings, self.step_log, feedback=False)
         if self.hcount is None:
             return details
         leaves = HcountLeaves(self.hcount.computed_from_scratch, self.hcount.brought_forward)
@@ -147,16 +96,19 @@ def begin_step(trial: Trial, step_log: list[StepRecord]) -> StepRecord:
     return record
 
 
-def tree_details(trial: Trial, settings: StalmSettings, step_log: list[StepRecord]) -> TreeDetails:
-    """A tree planner's record for ``PlanResult.details`` (no proposer: STaLM's adds its own)."""
+def tree_details(
+    trial: Trial, settings: RunSettings, step_log: list[StepRecord], *, feedback: bool
+) -> TreeDetails:
+    """A tree planner's record for ``PlanResult.details`` (no proposer: STaLM's adds its own;
+    ``feedback`` is off for a planner that proposes no task plans)."""
     return TreeDetails(
         proposer=None,
         settings=TreeSettingsRecord(
             reuse_tree=trial.reuse_tree,
-            feedback=settings.feedback,
-            execution=settings.execution,
-            kappa_tries=settings.kappa_tries,
-            backtracks=settings.backtracks,
+            feedback=feedback,
+            execution=settings.execution.rule,
+            kappa_tries=settings.execution.kappa_tries,
+            backtracks=settings.backtracks(),
             goal_atom_lost=trial.domain.reward_settings.goal_atom_lost,
         ),
         proposals=0,
@@ -168,7 +120,7 @@ def tree_details(trial: Trial, settings: StalmSettings, step_log: list[StepRecor
 
 def search(
     trial: Trial,
-    settings: StalmSettings,
+    settings: RunSettings,
     policies: SearchPolicies,
     plans: list[ConcretePlan],
     record: StepRecord,
@@ -177,10 +129,11 @@ def search(
     the tree's goal plan if a simulation finds one, else one root action chosen by the
     execution rule; ``record`` is told which, and how the tree looks after the search."""
     domain, state, done = trial.domain, trial.episode.state, trial.done
-    within = trial.within_horizon(settings.search)
+    rule, rounds = settings.execution.rule, settings.execution.search_rounds
+    within = trial.within_horizon(settings.search.search_settings())
     tree = trial.tree_at(state)
     visits_before = tree.visits(state)
-    step_end = trial.share_end(settings.step_share)
+    step_end = trial.share_end(settings.execution.step_share)
     searches = 0
 
     def decided(how: str) -> None:
@@ -212,7 +165,7 @@ def search(
         if result.best_action is None:
             decided("nothing")
             return ()
-        if settings.execution == "best_q":
+        if rule == "best_q":
             decided("best_q")
             return (result.best_action,)
         promising = _best_promising_action(tree, domain)
@@ -221,7 +174,7 @@ def search(
             return (promising,)
         if (
             result.stop_reason == "deadline"
-            or searches >= settings.search_rounds
+            or searches >= rounds
             or time.monotonic() >= step_end
             or within.budget == 0
         ):

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from stalm.planners.registry_rows import planner_rows
-from stalm.planners.tree_step import SearchStep, StalmSettings, tree_planner
+from stalm.planners.tree_step import SearchStep, tree_planner
 from stalm.progress import Progress
 from stalm.search import SearchPolicies
 from stalm.search.hcount import HcountLeafValue
@@ -25,14 +25,14 @@ from stalm.trial.online import OnlinePlanner, Trial
 
 @dataclass(frozen=True)
 class UctSteps:
-    """UCT's part of a planner: its search's settings and its leaf value (a random rollout,
-    or Hcount); called at a trial's start, its steps."""
+    """UCT's part of a planner: the run's settings tree (N_budget filled by its row) and its
+    leaf value (a random rollout, or Hcount); called at a trial's start, its steps."""
 
-    settings: StalmSettings
+    settings: RunSettings
     hcount: bool = False
 
     def __call__(self, trial: Trial) -> SearchStep:
-        policies = SearchPolicies.from_settings(self.settings.search)
+        policies = SearchPolicies.from_settings(self.settings.search.search_settings())
         if not self.hcount:
             return SearchStep(trial, self.settings, policies)
         leaves = HcountLeafValue(trial.episode.problem, trial.memo)
@@ -46,6 +46,5 @@ def uct_planner(
     """UCT run online (the 'uct' row; with ``hcount``, the 'uct-hcount' row) configured by a
     run's settings tree; of it, the proposer's part (N_batch, feedback, κ tries, backtracks)
     does not apply."""
-    budget = planner_rows()["uct-hcount" if hcount else "uct"].budget(settings)
-    view = StalmSettings.of(settings, budget, proposes=False)
-    return tree_planner(name, settings, UctSteps(view, hcount), progress, leaf_occlusion=hcount)
+    settings = planner_rows()["uct-hcount" if hcount else "uct"].settings_for(settings)
+    return tree_planner(name, settings, UctSteps(settings, hcount), progress, leaf_occlusion=hcount)

@@ -120,7 +120,7 @@ def failed_steps(problem: Problem, plans: Iterable[ConcretePlan]) -> tuple[Faile
         if plan.failed_step is None:
             continue
         step = plan.steps[-1]  # Concretize stops a plan at its infeasible step
-        why = step.kappa if isinstance(step.kappa, Infeasibility) else step.outcome.failure
+        why = step.infeasibility
         if why is None or why.kind == PRECONDITION:
             continue
         facts, support = _facts_and_support(problem, step.state, step.action, why)

@@ -20,7 +20,9 @@ from stalm.llm.feedback_prompt import with_feedback
 from stalm.llm.problem_prompt import problem_prompt
 from stalm.llm.prompt import Prompt, PromptOptions
 from stalm.llm.reply_parser import parse_reply
+from stalm.proposers.model_backend import llm_backend, use_constraint
 from stalm.proposers.protocol import Proposal, ProposalRequest
+from stalm.settings.tree import RunSettings
 
 MAX_REPLY_TOKENS = 500
 """The token budget of one reply (the authors' max_tokens)."""
@@ -62,6 +64,12 @@ class LLMProposer:
             max_tokens=self.max_tokens,
             deadline=request.deadline,
         )
+
+
+def model_proposer(settings: RunSettings) -> LLMProposer:
+    """The language model the settings name (behind its reply cache), asked with their prompt."""
+    backend = llm_backend(settings)
+    return LLMProposer(backend, settings.prompt, constrained=use_constraint(settings, backend))
 
 
 def ask_for_task_plans(

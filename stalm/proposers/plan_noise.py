@@ -45,7 +45,6 @@ from stalm.world.problem import Problem
 NoiseLabel = Literal["clean", "inapplicable", NoiseKind]
 """What the noisy proposer did to one plan: nothing (``clean``: not drawn for corruption),
 nothing although drawn (``inapplicable``: no kind applies to it), or the kind it injected."""
-NOISE_LABELS: tuple[NoiseLabel, ...] = ("clean", "inapplicable", *NOISE_KINDS)
 
 LARGER_FOOTPRINT = 1.5
 """How much larger (footprint area) an object must be than the first one a plan puts into its

@@ -97,6 +97,11 @@ class ConcreteStep:
         """The sampled action α(δ, κ), or None for an infeasible step."""
         return None if isinstance(self.kappa, Infeasibility) else self.kappa
 
+    @property
+    def infeasibility(self) -> Infeasibility | None:
+        """Why the step is infeasible: ψ found no κ, or T's outcome says; None if feasible."""
+        return self.kappa if isinstance(self.kappa, Infeasibility) else self.outcome.failure
+
 
 @dataclass(frozen=True)
 class ConcretePlan:
@@ -213,7 +218,7 @@ def _concretize_one(
         outcome = apply(mdp, state, kappa)
         steps.append(ConcreteStep(state, action, kappa, outcome))
         if isinstance(kappa, Infeasibility) or not outcome.feasible:
-            why = kappa if isinstance(kappa, Infeasibility) else outcome.failure
+            why = steps[-1].infeasibility
             redo = _placement_to_redo(steps, why, done) if done < backtracks else None
             if redo is not None:
                 # an object this plan put down is in the way: draw that placement again

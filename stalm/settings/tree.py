@@ -10,9 +10,8 @@ run is one value: built from the defaults, a file and ``--set`` overrides
 ``stalm rerun`` runs the trial again.
 
 Every default of a run is written here or in a layer dataclass the tree composes, and nowhere
-else: a method's own settings (:class:`~stalm.planners.tree_step.StalmSettings` and its kind)
-are views without defaults built from a tree, and a planner built without one builds them
-from ``RunSettings()``, so the Python API runs what ``stalm solve`` runs. The values are
+else: the planners read this tree and its sections themselves, and a planner built without
+one reads ``RunSettings()``, so the Python API runs what ``stalm solve`` runs. The values are
 checked here too, once, by the sections. A ``None`` means "decided per planner or per
 problem"; :meth:`RunSettings.resolved` replaces every such ``None`` by the value the run uses,
 and that resolved tree is what a record keeps.
@@ -134,8 +133,12 @@ class SearchSection:
         )
         self.search_settings(1)  # c, k, alpha, gamma and horizon: checked by the search layer
 
-    def search_settings(self, budget: int) -> SearchSettings:
-        """The search layer's settings with N_budget ``budget``."""
+    def search_settings(self, budget: int | None = None) -> SearchSettings:
+        """The search layer's settings with N_budget ``budget`` (None: ``sims``, which the
+        planner's row of the registry fills when it is None)."""
+        budget = self.sims if budget is None else budget
+        if budget is None:
+            raise ValueError("search.sims is None: this planner runs no tree search")
         return SearchSettings(
             c=self.c,
             k=self.k,
@@ -286,17 +289,6 @@ class ExecutionSection:
             self,
         )
 
-    def feedback_for(self, proposer: ProposerSection) -> bool:
-        """Whether feedback is on: ``feedback``, else on for the symbolic proposer only (off
-        for a model and for the noisy proposer)."""
-        return self.feedback if self.feedback is not None else proposer.kind == "symbolic"
-
-    def backtracks_for(self, feedback: bool) -> int:
-        """Concretize's backtracks: ``backtracks``, else 6 with feedback and 0 without."""
-        if self.backtracks is not None:
-            return self.backtracks
-        return FEEDBACK_BACKTRACKS if feedback else 0
-
 
 @dataclass(frozen=True)
 class RunSettings:
@@ -313,18 +305,23 @@ class RunSettings:
     execution: ExecutionSection = field(default_factory=ExecutionSection)
 
     def feedback(self) -> bool:
-        """Whether geometric feedback is on in this run."""
-        return self.execution.feedback_for(self.proposer)
+        """Whether geometric feedback is on in this run (``execution.feedback`` resolved)."""
+        feedback = self.execution.feedback
+        return feedback if feedback is not None else self.proposer.kind == "symbolic"
+
+    def backtracks(self) -> int:
+        """Concretize's backtracks in this run (``execution.backtracks`` resolved)."""
+        backtracks = self.execution.backtracks
+        if backtracks is not None:
+            return backtracks
+        return FEEDBACK_BACKTRACKS if self.feedback() else 0
 
     def resolved(self, problem: Problem | None = None) -> RunSettings:
         """This tree with every None that :class:`RunSettings` decides replaced by the value
         the run (on ``problem``, for the budget and the predicates' scope) uses. Resolving
         twice changes nothing; N_budget's and the language model's Nones are the registry's
         (it knows each planner's budget and which planners ask a model)."""
-        feedback = self.feedback()
-        execution = replace(
-            self.execution, feedback=feedback, backtracks=self.execution.backtracks_for(feedback)
-        )
+        execution = replace(self.execution, feedback=self.feedback(), backtracks=self.backtracks())
         budget = self.budget
         predicates = self.predicates
         if problem is not None:

@@ -25,7 +25,7 @@ from typing import Protocol
 
 import numpy as np
 
-from stalm.domain.mdp import Domain, RewardSettings
+from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
 from stalm.predicates.deadline import DeadlinePassed
 from stalm.predicates.engine import PredicateEngine
@@ -143,19 +143,16 @@ class OnlinePlanner:
     """A planner that acts online, composed: the loop of every online method around one
     method's :class:`Decider` (made by ``start``), configured by the run's settings tree.
 
-    The tree's ``samplers`` and ``predicates`` sections configure the trial's domain and
-    predicate engine; the method says what else its trials look like: R's constants
-    (``rewards``), whether the predicates include the occlusion literals (``occlusion``, which
-    cost motion planning) and whether the executed child's subtree is the next step's tree
-    (``reuse_tree``)."""
+    The tree's ``samplers``, ``rewards`` and ``predicates`` sections configure the trial's
+    domain and predicate engine, ``execution.reuse_tree`` whether the executed child's subtree
+    is the next step's tree; the method says whether the predicates include the occlusion
+    literals (``occlusion``, which cost motion planning)."""
 
     name: str
     settings: RunSettings
     start: StartSteps
     progress: Progress | None = None
-    rewards: RewardSettings = field(default_factory=RewardSettings)
     occlusion: bool = True
-    reuse_tree: bool = False
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
         """Plan and execute until the goal, the horizon or the time budget (None: the
@@ -178,7 +175,7 @@ class OnlinePlanner:
                     problem,
                     Sim(problem.spec, stop=episode.out_of_time),
                     sampler_settings=self.settings.samplers,
-                    reward_settings=self.rewards,
+                    reward_settings=self.settings.rewards,
                 )
         except SceneAbandoned:
             observer.message("the deadline passed while the scene was built")
@@ -215,7 +212,7 @@ class OnlinePlanner:
             episode,
             np.random.default_rng(seed),
             seed,
-            reuse_tree=self.reuse_tree,
+            reuse_tree=self.settings.execution.reuse_tree,
         )
         if episode.out_of_time():
             trial.say("the deadline passed while the trial was set up")

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from typing import Protocol
 
 from stalm.domain.params import Action
@@ -32,8 +32,7 @@ class PhaseTimes:
 
     predicates: float = 0.0
     proposer: float = 0.0
-    """The task-plan proposer's queries: a language model's calls, or Fast Downward's runs
-    (records written before this field was named so call it ``llm``: :meth:`from_json`)."""
+    """The task-plan proposer's queries: a language model's calls, or Fast Downward's runs."""
     concretize: float = 0.0
     tree_search: float = 0.0
     execution: float = 0.0
@@ -42,16 +41,6 @@ class PhaseTimes:
     setup: float = 0.0
     """Building the trial's scene, domain and method before its first decision (on a scene of
     thousands of objects, seconds of the budget)."""
-
-    @classmethod
-    def from_json(cls, data: object) -> PhaseTimes:
-        """The phase times of a record's ``times`` (what :meth:`PlanResult.to_json` wrote, by
-        any version of stalm): the proposer's seconds under ``proposer`` or, in an older
-        record, ``llm``; keys not known, and values that are not finite numbers, are left out
-        (a record is untrusted input)."""
-        return cls(
-            **{key: value for key, value in phase_times_json(data).items() if key in _FIELDS}
-        )
 
     def phases(self) -> dict[str, float]:
         """The seconds of each phase (not ``total`` or ``cpu``), in the order printed."""
@@ -65,29 +54,18 @@ class PhaseTimes:
         }
 
 
-OLD_PHASE_NAMES = {"llm": "proposer"}
-"""Phase keys records once wrote, by the name they have now: the proposer's seconds were
-``llm`` although Fast Downward's runs were counted there too."""
-
-
 def phase_times_json(data: object) -> dict[str, float]:
-    """A record's ``times`` with today's keys (``llm`` read as ``proposer``), finite numbers
-    only; {} for anything that is not a mapping."""
+    """A record's ``times`` (read through :mod:`stalm.trial.records`), its finite numbers
+    only; {} for anything that is not a mapping (a record is untrusted input)."""
     if not isinstance(data, dict):
         return {}
-    times: dict[str, float] = {}
-    for key, value in data.items():
-        name = OLD_PHASE_NAMES.get(str(key), str(key))
-        if name in times and name != key:
-            continue  # both keys: the new one wins
-        if isinstance(value, bool) or not isinstance(value, numbers.Real):
-            continue
-        if math.isfinite(float(value)):
-            times[name] = float(value)
-    return times
-
-
-_FIELDS = frozenset(f.name for f in fields(PhaseTimes))
+    return {
+        str(key): float(value)
+        for key, value in data.items()
+        if isinstance(value, numbers.Real)
+        and not isinstance(value, bool)
+        and math.isfinite(float(value))
+    }
 
 
 def cpu_seconds() -> float:

@@ -16,7 +16,6 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
-from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.json_object import JsonObject, record_json
 from stalm.predicates.literals import GroundLiteral
@@ -211,8 +210,7 @@ def _reason(plan: ConcretePlan) -> FailureReason | None:
     """The failed step's Infeasibility: kind, sentence and blockers (None if no step failed)."""
     if plan.failed_step is None or plan.failed_step >= len(plan.steps):
         return None
-    step = plan.steps[plan.failed_step]
-    why = step.kappa if isinstance(step.kappa, Infeasibility) else step.outcome.failure
+    why = plan.steps[plan.failed_step].infeasibility
     if why is None:
         return None
     return FailureReason(why.kind, why.detail, tuple(why.blockers))

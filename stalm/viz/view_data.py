@@ -30,8 +30,6 @@ import pybullet as p
 
 from stalm.domain.params import Action, OpenParams, PickParams, PlaceParams
 from stalm.domain.schedule import PlanSchedule, schedule_plan
-from stalm.errors import StalmError
-from stalm.files import read_json_file
 from stalm.trial.replay import replay_result_json
 from stalm.trial.result import phase_times_json
 from stalm.trial.step_log import DECISIONS
@@ -53,14 +51,6 @@ POSITION_DIGITS = 4
 """Decimals kept of a coordinate in the page (0.1 mm)."""
 TIME_DIGITS = 3
 """Decimals kept of a frame's robot time in the page (1 ms)."""
-
-
-def load_result(path: Path) -> dict[str, Any]:
-    """A result file as written by ``stalm solve --json``; a StalmError names what is wrong."""
-    data = read_json_file(path, "result file", finite=True)  # bounded, finite, not too deep
-    if not isinstance(data, dict):
-        raise StalmError(f"{path}: not a stalm result (not a JSON object)")
-    return data
 
 
 # ---------------------------------------------------------------------------- meshes
@@ -359,7 +349,7 @@ def view_data(problem: Problem, data: dict[str, Any], source: str = "") -> dict[
         "floor": [[x0, y0], [x1, y1]],
         "result": {
             **{key: data.get(key) for key in ("planner", "seed", "success", "termination")},
-            "times": phase_times_json(data.get("times")),  # an old record's 'llm' as 'proposer'
+            "times": phase_times_json(data.get("times")),
             "counters": data.get("counters"),
         },
         "llm_plan_failures": data.get("llm_plan_failures") or {},

@@ -18,10 +18,10 @@ from stalm.llm.cache import CachedBackend
 from stalm.llm.cache_file import ReplyCache
 from stalm.llm.prompt import PromptOptions
 from stalm.planners.llm_mcts import (
+    UNIFORM_WEIGHT,
     LlmMcts,
     LlmMctsPlanner,
     LLMPrior,
-    build_llm_mcts,
     llm_mcts_policies,
 )
 from stalm.planners.registry import build_planner
@@ -59,6 +59,7 @@ def _prior(problem, backend, literals=None, seed: int = 0, deadline=None) -> LLM
         LLMProposer(backend),
         literals or SymbolicLiteralsDouble(),
         trial_seed=seed,
+        samples=5,
         deadline=deadline,
     )
 
@@ -248,14 +249,16 @@ def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
     planner = build_planner("llm-mcts", settings_of(llm="http://127.0.0.1:9/v1#m"))
     method = planner.start
     assert isinstance(method, LlmMcts) and planner.name == "llm-mcts"
-    assert method.settings.search.budget == 35 and method.settings.search.c == 50.0
-    assert method.settings.samples == 5 and method.settings.uniform_weight == 0.5
-    custom = build_llm_mcts(settings_of(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3), None)
+    search = method.settings.search.search_settings()
+    assert search.budget == 35 and search.c == 50.0 and method.settings.search.batch == 5
+    assert UNIFORM_WEIGHT == 0.5
+    custom = build_planner("llm-mcts", settings_of(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3))
     assert isinstance(custom.start, LlmMcts)
-    assert custom.start.settings.search.budget == 7 and custom.start.settings.samples == 3
+    assert custom.start.settings.search.search_settings().budget == 7
+    assert custom.start.settings.search.batch == 3
     assert planner.occlusion
     no_occlusion = settings_of(llm="http://127.0.0.1:9/v1#m", prompt__occlusion_predicates=False)
-    assert not build_llm_mcts(no_occlusion, None).occlusion
+    assert not build_planner("llm-mcts", no_occlusion).occlusion
 
 
 def test_llm_mcts_reuses_the_tree_by_the_one_setting_of_every_tree_planner() -> None:
@@ -263,9 +266,9 @@ def test_llm_mcts_reuses_the_tree_by_the_one_setting_of_every_tree_planner() -> 
     (execution.reuse_tree, --set reuse_tree=false) switches it off for all of them."""
     model = settings_of(llm="http://127.0.0.1:9/v1#m")
     for name in ("llm-mcts", "stalm", "uct", "uct-hcount"):
-        assert build_planner(name, model).reuse_tree, name
+        assert build_planner(name, model).settings.execution.reuse_tree, name
         off = settings_of(llm="http://127.0.0.1:9/v1#m", reuse_tree=False)
-        assert not build_planner(name, off).reuse_tree, name
+        assert not build_planner(name, off).settings.execution.reuse_tree, name
 
 
 def test_the_reused_subtree_keeps_the_n_and_q_it_had_before_the_step(problems, monkeypatch) -> None:
@@ -329,6 +332,7 @@ def test_a_query_from_the_cache_is_charged_its_original_seconds_and_the_prior_se
         CachedProposerDouble(),
         SymbolicLiteralsDouble(),
         trial_seed=0,
+        samples=5,
         deadline=clock.read,
         on_query=clock.record_query,
     )

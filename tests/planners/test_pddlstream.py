@@ -10,19 +10,15 @@ import pytest
 
 from stalm.domain.mdp import Domain
 from stalm.domain.outcome import Infeasibility
-from stalm.planners.pddlstream import PDDLStreamPlanner, build_pddlstream_adaptive
-from stalm.planners.pddlstream.adaptive import (
-    SEARCH,
-    Adaptive,
-    AdaptiveSettings,
-    StreamKey,
-    fast_downward,
-    optimistic_problem,
-)
+from stalm.planners.pddlstream import PDDLStreamPlanner
+from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, optimistic_problem
+from stalm.planners.pddlstream.downward import SEARCH, fast_downward
 from stalm.planners.pddlstream.execute import learn_from
+from stalm.planners.pddlstream.instances import StreamKey
 from stalm.planners.pddlstream.pddl_text import DOMAIN_PDDL
 from stalm.planners.pddlstream.planner import adaptive_for, fluents
 from stalm.planners.pddlstream.values import PoseValue, is_optimistic
+from stalm.planners.registry import build_planner
 from stalm.proposers.fast_downward import translate_task
 from stalm.trial.replay import replay_plan
 from stalm.world.problem import Problem
@@ -145,7 +141,7 @@ def test_an_execution_failure_becomes_a_fact_or_retires_the_motion(p2_domain) ->
 
 
 def test_the_registry_builds_it() -> None:
-    planner = build_pddlstream_adaptive(settings_of(), None)
+    planner = build_planner("pddlstream-adaptive", settings_of())
     assert isinstance(planner, PDDLStreamPlanner) and planner.name == "pddlstream-adaptive"
 
 

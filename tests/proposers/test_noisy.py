@@ -304,10 +304,10 @@ def test_the_settings_build_the_noisy_proposer_without_a_model() -> None:
     # occlusion literals are computed whatever the prompt says: the corruptions need them
     resolved = resolve("stalm", settings)
     assert (resolved.execution.feedback, resolved.execution.backtracks) == (False, 0)
-    assert planner.start.settings.feedback is False
+    assert planner.start.settings.feedback() is False
     assert planner.occlusion
     on = with_overrides(settings, ["execution.feedback=true"])
-    assert build_planner("stalm", on).start.settings.feedback is True
+    assert build_planner("stalm", on).start.settings.feedback() is True
     llm = with_overrides(
         settings, ["proposer.noise.inner=llm", "llm.backend=http://127.0.0.1:9/v1#m"]
     )

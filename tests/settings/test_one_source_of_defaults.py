@@ -15,19 +15,19 @@ from stalm.planners.iterative_replanning import (
     Replanning,
     ReplanningConstants,
 )
-from stalm.planners.llm_mcts import LlmMctsPlanner, LlmMctsSettings
+from stalm.planners.llm_mcts import LlmMctsPlanner
 from stalm.planners.pddlstream import AdaptiveSettings
 from stalm.planners.registry import build_planner, planners, resolve
 from stalm.planners.registry_rows import planner_rows
 from stalm.planners.saycan import EpSayCanPlanner, SayCan, SayCanConstants
-from stalm.planners.stalm import StalmPlanner, StalmSettings, StalmSteps, proposer_kind
+from stalm.planners.stalm import StalmPlanner, StalmSteps, proposer_kind
 from stalm.planners.uct import UctSteps, uct_planner
 from stalm.proposers.fast_downward import SymbolicProposer
 from stalm.proposers.language_model import LLMProposer
 from stalm.proposers.noisy import NoisyProposer
 from stalm.search import SearchSettings
 from stalm.settings.io import setting_keys, with_values
-from stalm.settings.tree import RunSettings, SearchSection, with_budget
+from stalm.settings.tree import LlmSection, RunSettings, SearchSection, with_budget
 from stalm.trial.online import OnlinePlanner
 from tests.golden import assert_matches, plain
 from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble
@@ -35,8 +35,6 @@ from tests.planners.llm_reply_doubles import ScriptedReplyBackendDouble
 STALM = Path(__file__).resolve().parents[2] / "stalm"
 
 METHOD_CONSTANTS: dict[type, set[str]] = {
-    StalmSettings: set(),
-    LlmMctsSettings: {"uniform_weight"},
     SayCanConstants: {"uniform_weight", "max_queries_per_step", "temperature"},
     ReplanningConstants: {"attempts_per_state", "max_failed_plans", "temperature"},
     AdaptiveSettings: {"initial_complexity", "search", "memory_limit_mb"},
@@ -94,12 +92,12 @@ def test_stalm_built_by_hand_reads_what_the_registry_builds_for_its_proposer(kin
     assert isinstance(built.start, StalmSteps)
     by_hand = StalmPlanner(built.start.proposer)
     assert isinstance(by_hand.start, StalmSteps)
-    assert by_hand.start.settings == built.start.settings
+    assert _method_reads(by_hand) == _method_reads(built)
     assert _trial_shape(by_hand) == _trial_shape(built)
-    assert by_hand.start.settings.feedback is (kind == "symbolic")
+    assert by_hand.start.settings.feedback() is (kind == "symbolic")
     off = StalmPlanner(built.start.proposer, _tree(("execution.feedback", False)))
     assert isinstance(off.start, StalmSteps)
-    assert (off.start.settings.feedback, off.start.settings.backtracks) == (False, 0)
+    assert (off.start.settings.feedback(), off.start.settings.backtracks()) == (False, 0)
 
 
 def _trial_shape(planner: OnlinePlanner) -> tuple[object, ...]:
@@ -109,19 +107,20 @@ def _trial_shape(planner: OnlinePlanner) -> tuple[object, ...]:
         planner.name,
         settings.samplers,
         settings.predicates,
-        planner.rewards,
+        settings.rewards,
         planner.occlusion,
-        planner.reuse_tree,
+        settings.execution.reuse_tree,
     )
 
 
 def _method_reads(planner: OnlinePlanner) -> object:
-    """What ``planner``'s part holds of its settings beyond the tree (EP-SayCan and
-    Iterative-Replanning read the tree itself, and hold only their constants)."""
+    """What ``planner``'s part holds of its settings: its constants (EP-SayCan and
+    Iterative-Replanning), else its settings tree but for the language model (which the
+    registry's planners here name and a planner built by hand is given)."""
     method = planner.start
     if isinstance(method, SayCan | Replanning):
         return method.constants
-    return method.settings  # type: ignore[attr-defined]
+    return dataclasses.replace(method.settings, llm=LlmSection())  # type: ignore[attr-defined]
 
 
 def test_the_other_planners_built_by_hand_read_what_the_registry_builds() -> None:
@@ -142,7 +141,7 @@ def test_the_other_planners_built_by_hand_read_what_the_registry_builds() -> Non
         assert _trial_shape(planner) == _trial_shape(built), name
     uct, hcount = by_hand["uct"].start, by_hand["uct-hcount"].start
     assert isinstance(uct, UctSteps) and isinstance(hcount, UctSteps)
-    assert uct.settings.search.budget == 35 and not uct.hcount and hcount.hcount
+    assert uct.settings.search.search_settings().budget == 35 and not uct.hcount and hcount.hcount
     assert by_hand["uct-hcount"].occlusion
 
 
@@ -182,13 +181,14 @@ def test_each_planners_default_budget_is_its_registry_rows_and_the_settings_name
         assert resolve(name, tree).search.sims == sims, name
         if sims is not None:
             method = build_planner(name, tree).start
-            assert method.settings.search.budget == sims, name  # type: ignore[attr-defined]
+            assert method.settings.search.search_settings().budget == sims, name  # type: ignore[attr-defined]
     by_hand = StalmPlanner(SymbolicProposer()).start
-    assert isinstance(by_hand, StalmSteps) and by_hand.settings.search.budget == rows["stalm"]
+    assert isinstance(by_hand, StalmSteps)
+    assert by_hand.settings.search.search_settings().budget == rows["stalm"]
     settings_code = (STALM / "settings" / "tree.py").read_text(encoding="utf-8")
     assert not re.search(r'"(stalm|uct|uct-hcount|llm-mcts)"', settings_code)
-    with pytest.raises(ValueError, match="ep-saycan runs no tree search"):
-        planner_rows()["ep-saycan"].budget(tree)
+    with pytest.raises(ValueError, match="runs no tree search"):
+        planner_rows()["ep-saycan"].settings_for(tree).search.search_settings()
     # the rows are the one place N_budget is written: no planner module keeps a fallback
     for module in (STALM / "planners").glob("*.py"):
         code = module.read_text(encoding="utf-8")

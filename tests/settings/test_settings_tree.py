@@ -11,7 +11,6 @@ import yaml
 
 from stalm.errors import StalmError
 from stalm.planners.registry import build_planner, resolve
-from stalm.planners.stalm import StalmSettings
 from stalm.search import SearchSettings
 from stalm.settings.io import (
     changed,
@@ -57,38 +56,39 @@ def test_the_flat_names_set_the_tree_paths_they_name() -> None:
 
 
 def test_the_default_tree_builds_the_tree_planners_as_before() -> None:
-    """The StalmSettings the registry built from the flat defaults before the tree."""
-    for planner, budget, proposer in (("stalm", 30, "llm"), ("uct", 35, "llm")):
-        settings = with_values(RunSettings(), [("proposer", proposer)], "test")
-        before = StalmSettings(
-            n_batch=5,
-            search=SearchSettings(budget=budget),
-            feedback=False,
-            feedback_rounds=8,
-            search_rounds=10,
-            step_share=1.0,
-            execution="progress",
-            kappa_tries=3,
-            backtracks=0,
+    """What the tree planners' steps read of the default tree: the values the registry built
+    from the flat defaults before the tree."""
+    for planner, budget in (("stalm", 30), ("uct", 35)):
+        read = build_planner(planner, RunSettings()).start.settings  # type: ignore[attr-defined]
+        execution = read.execution
+        assert read.search.search_settings() == SearchSettings(budget=budget)
+        assert (read.search.batch, read.feedback(), read.backtracks()) == (5, False, 0)
+        assert (execution.feedback_rounds, execution.search_rounds) == (8, 10)
+        assert (execution.step_share, execution.rule, execution.kappa_tries) == (
+            1.0,
+            "progress",
+            3,
         )
-        assert StalmSettings.of(settings, budget, proposes=planner == "stalm") == before
-    symbolic = StalmSettings.of(
-        with_values(RunSettings(), [("proposer", "symbolic")], "test"), 30, proposes=True
-    )
-    assert (symbolic.feedback, symbolic.backtracks) == (True, 6)
+    symbolic = with_values(RunSettings(), [("proposer", "symbolic")], "test")
+    assert (symbolic.feedback(), symbolic.backtracks()) == (True, 6)
 
 
 # (dotted key, value, planner, what the built planner holds for it)
 REACHES = [
-    ("search.c", 20.0, "stalm", lambda p: p.start.settings.search.c),
-    ("search.k", 2.0, "uct", lambda p: p.start.settings.search.k),
-    ("search.alpha", 0.3, "uct-hcount", lambda p: p.start.settings.search.alpha),
-    ("search.gamma", 0.9, "llm-mcts", lambda p: p.start.settings.search.gamma),
-    ("search.horizon", 12, "stalm-no-uct", lambda p: p.start.settings.search.horizon),
-    ("search.sims", 9, "llm-mcts", lambda p: p.start.settings.search.budget),
+    ("search.c", 20.0, "stalm", lambda p: p.start.settings.search.search_settings().c),
+    ("search.k", 2.0, "uct", lambda p: p.start.settings.search.search_settings().k),
+    ("search.alpha", 0.3, "uct-hcount", lambda p: p.start.settings.search.search_settings().alpha),
+    ("search.gamma", 0.9, "llm-mcts", lambda p: p.start.settings.search.search_settings().gamma),
+    (
+        "search.horizon",
+        12,
+        "stalm-no-uct",
+        lambda p: p.start.settings.search.search_settings().horizon,
+    ),
+    ("search.sims", 9, "llm-mcts", lambda p: p.start.settings.search.search_settings().budget),
     ("search.batch", 3, "ep-saycan", lambda p: p.start.settings.search.batch),
-    ("rewards.goal", 50.0, "uct", lambda p: p.rewards.goal),
-    ("rewards.infeasible", -1.0, "llm-mcts", lambda p: p.rewards.infeasible),
+    ("rewards.goal", 50.0, "uct", lambda p: p.settings.rewards.goal),
+    ("rewards.infeasible", -1.0, "llm-mcts", lambda p: p.settings.rewards.infeasible),
     ("samplers.pick_tries", 5, "stalm", lambda p: p.settings.samplers.pick_tries),
     ("samplers.place_tries", 6, "pddlstream-adaptive", lambda p: p.samplers.place_tries),
     (
@@ -99,10 +99,10 @@ REACHES = [
     ),
     ("predicates.workers", 2, "stalm", lambda p: p.settings.predicates.workers),
     ("execution.kappa_tries", 2, "ep-saycan", lambda p: p.start.settings.execution.kappa_tries),
-    ("execution.step_share", 0.5, "stalm", lambda p: p.start.settings.step_share),
-    ("execution.feedback_rounds", 3, "stalm", lambda p: p.start.settings.feedback_rounds),
-    ("execution.search_rounds", 4, "uct", lambda p: p.start.settings.search_rounds),
-    ("execution.reuse_tree", False, "llm-mcts", lambda p: p.reuse_tree),
+    ("execution.step_share", 0.5, "stalm", lambda p: p.start.settings.execution.step_share),
+    ("execution.feedback_rounds", 3, "stalm", lambda p: p.start.settings.execution.feedback_rounds),
+    ("execution.search_rounds", 4, "uct", lambda p: p.start.settings.execution.search_rounds),
+    ("execution.reuse_tree", False, "llm-mcts", lambda p: p.settings.execution.reuse_tree),
     (
         "proposer.goal_relations_only",
         False,

@@ -45,21 +45,6 @@ from stalm.planners.pddlstream.knowledge import Knowledge
 from stalm.planners.pddlstream.pddl_text import Fact, problem_pddl
 from stalm.planners.pddlstream.values import GRASP, MOTION, POSE, is_optimistic
 
-__all__ = [
-    "SEARCH",
-    "Adaptive",
-    "AdaptiveSettings",
-    "Iteration",
-    "IterationRecord",
-    "StreamKey",
-    "Streams",
-    "fast_downward",
-    "optimistic_problem",
-    "stream_plan",
-]
-"""Stream instances (:mod:`.instances`) and Fast Downward (:mod:`.downward`) have modules of
-their own; the names the loop's users need are re-exported here."""
-
 
 @dataclass(frozen=True)
 class AdaptiveSettings:

@@ -31,8 +31,9 @@ from stalm.domain.samplers import SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
 from stalm.json_object import JsonObject, record_json
-from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, IterationRecord, Streams
+from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, IterationRecord
 from stalm.planners.pddlstream.execute import build_action, learn_from
+from stalm.planners.pddlstream.instances import Streams
 from stalm.planners.pddlstream.knowledge import Knowledge
 from stalm.planners.pddlstream.pddl_text import Fact, goal_fact
 from stalm.planners.pddlstream.streams import StreamGeometry
