@@ -4,7 +4,8 @@
 (:mod:`stalm.generate.arrange`) from ``seed``, writes them as problem-file data with every
 coordinate rounded to :data:`DECIMALS` places (0.1 mm, so that another machine's last bits do
 not show in the file), loads that data as ``stalm`` loads any problem, checks the scene as
-``stalm problems --file`` does, and grounds the construction's plan
+``stalm problems --file`` does (with mesh clutter, settling it under gravity too), and grounds
+the construction's plan
 (:mod:`stalm.generate.witness`). A candidate that fails any of these is dropped and the next
 is drawn (``numpy.random.default_rng([seed, candidate])``), at most :data:`CANDIDATES` of them.
 The witness's length is the problem's ``optimal_length`` (an upper bound).
@@ -28,6 +29,7 @@ from stalm.json_object import JsonObject
 from stalm.motion.problem_check import problem_geometry_faults
 from stalm.trial.details import RunDetails
 from stalm.trial.result import Counters, PhaseTimes, PlanResult
+from stalm.world.physics_check import unsettled_objects
 from stalm.world.problem import Problem
 from stalm.world.problem_file import parse_problem
 from stalm.world.problem_record import problem_fields
@@ -117,7 +119,7 @@ def generate_problem(
         rng = np.random.default_rng([seed, candidate])
         data, arrangement = _problem_data(knobs, seed, name, layout, rng)
         problem = Problem(parse_problem(data, source, base=folder), source)
-        faults = problem_geometry_faults(problem)
+        faults = problem_geometry_faults(problem) or _unsettled(problem, knobs)
         if faults:
             reasons.append(faults[0])
             continue
@@ -133,6 +135,19 @@ def generate_problem(
         f"no problem for seed {seed} after {CANDIDATES} candidates; the last failed: "
         f"{reasons[-1] if reasons else 'unknown'}"
     )
+
+
+def _unsettled(problem: Problem, knobs: Knobs) -> list[str]:
+    """With mesh clutter, the objects that do not rest where the file puts them, in words (a
+    mesh kept for resting alone could still be knocked by a neighbour's fall); cans and
+    bottles always rest, so a scene of them is not settled, and is made as before."""
+    if not knobs.clutter:
+        return []
+    return [
+        f"{drift.obj} does not rest where it stands (moved {drift.displacement_m * 1000:.1f} "
+        f"mm, tilted {drift.tilt_deg:.1f} deg)"
+        for drift in unsettled_objects(problem)
+    ]
 
 
 def _problem_data(

@@ -157,7 +157,7 @@ def check_physics(
     actions (``labels[i]`` made ``states[i + 1]``). The tolerances must be positive and the
     settling time at least one time step (a StalmError names the one that is not)."""
     _check_terms("check_physics", settle_seconds, tolerance_m, tolerance_deg)
-    world = _PhysicsWorld(problem)
+    world = PhysicsWorld(problem)
     try:
         steps = []
         previous: State | None = None
@@ -188,7 +188,7 @@ def unsettled_objects(
     and :func:`check_physics` would then fail every plan at its initial state."""
     _check_terms("unsettled_objects", settle_seconds, tolerance_m, tolerance_deg)
     state = problem.initial_state if state is None else state
-    world = _PhysicsWorld(problem)
+    world = PhysicsWorld(problem)
     try:
         world.show(None, state)
         world.settle(round(settle_seconds / TIME_STEP))
@@ -251,7 +251,7 @@ def centre_of_mass(obj: ObjectSpec) -> tuple[float, float, float]:
     return (0.0, 0.0, (body * sz / 2 + 2 * handle * obj.handle_z) / (body + 2 * handle))
 
 
-class _PhysicsWorld:
+class PhysicsWorld:
     """One problem's bodies in a DIRECT client with gravity, objects dynamic."""
 
     def __init__(self, problem: Problem) -> None:
@@ -317,7 +317,7 @@ class _PhysicsWorld:
         self._unpin()
         for name, pose in state.poses:
             if previous is None or not previous.has_pose(name):
-                self._put(name, (pose.x, pose.y, pose.z), yaw_quat(pose.yaw))
+                self.put(name, (pose.x, pose.y, pose.z), yaw_quat(pose.yaw))
         if state.held is not None:
             self._pin(state)
 
@@ -328,7 +328,7 @@ class _PhysicsWorld:
         position, orientation = p.multiplyTransforms(
             *hand, state.held.position, state.held.orientation, physicsClientId=c
         )
-        com = self._put(name, position, orientation)
+        com = self.put(name, position, orientation)
         for link in self.arm_links:
             p.setCollisionFilterPair(
                 self.bodies.arm, self.objects[name], link, -1, 0, physicsClientId=c
@@ -357,7 +357,7 @@ class _PhysicsWorld:
             )
         self.pin = self.pinned = None
 
-    def _put(
+    def put(
         self, name: str, position: Sequence[float], orientation: Sequence[float]
     ) -> list[float]:
         """Put ``name``'s frame at a pose, at rest; returns its centre of mass there."""

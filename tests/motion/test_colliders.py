@@ -134,13 +134,11 @@ def test_the_sphere_model_misses_no_pybullet_contact(problems: dict[str, Problem
 
 MESH_CLUTTER = "meshclutter20_seed5"
 """``stalm generate --layout storeroom --objects 20 --seed 5 --objects-from pybullet_data``:
-nine clutter meshes of ``random_urdfs``, two of them of more than 8 convex pieces (62 and 11:
+nine clutter meshes of ``random_urdfs``, two of them of more than 8 convex pieces (52 and 67:
 each covered by one box in the batched engine)."""
 
 
-@pytest.mark.parametrize(
-    "name", ["P2", "P5", pytest.param(MESH_CLUTTER, marks=pytest.mark.slow)]
-)
+@pytest.mark.parametrize("name", ["P2", "P5", pytest.param(MESH_CLUTTER, marks=pytest.mark.slow)])
 def test_both_engines_give_the_same_predicates(problems: dict[str, Problem], name: str) -> None:
     problem = load_problem(DATA / f"{name}.yaml") if name == MESH_CLUTTER else problems[name]
     domain = Domain.create(problem)
