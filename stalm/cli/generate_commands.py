@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -88,8 +89,8 @@ def generate_command(
         typer.Option(
             metavar="DIR|pybullet_data",
             help="Make about half the clutter meshes: the OBJ files of a folder (each scaled to "
-            "fill a slot, kept if it rests upright as loaded) or 'pybullet_data', the set "
-            "shipped with stalm; the kept count is said in one line.",
+            "fill a slot, kept if it rests upright as loaded and comes back when tipped) or "
+            "'pybullet_data', the set shipped with stalm; the kept count is said in one line.",
         ),
     ] = None,
     suite: Annotated[
@@ -127,14 +128,16 @@ def generate_command(
     if replace and suite is None:
         raise StalmError("--replace goes with --suite (one problem's files are always replaced)")
     static = load_layout(layout)
-    clutter = _clutter(objects_from, out if suite is not None else out.parent)
     if suite is not None:
         check_suite_name(suite)
         if out.exists() and not out.is_dir():
             raise StalmError(f"-o {out}: is a file; with --suite, -o names a folder")
         check_output_file(out / "index.json", "-o")
         counts = _sizes(sizes)
-        knobs = Knobs(max(counts), goals, occlusion_depth, door == "closed", trap, clutter)
+        knobs = Knobs(max(counts), goals, occlusion_depth, door == "closed", trap)
+        for size in counts:  # before the meshes are scanned, which may take a minute
+            static.check_capacity(dataclasses.replace(knobs, objects=size))
+        knobs = dataclasses.replace(knobs, clutter=_clutter(objects_from, out))
         with console.status("generating the suite...") as status:
             made = generate_suite(
                 suite,
@@ -153,8 +156,9 @@ def generate_command(
         raise StalmError(f"-o {out}: a problem file ends in .yaml")
     check_output_file(out, "-o")
     check_output_file(witness_path(out), "-o (its witness)")
-    knobs = Knobs(objects, goals, occlusion_depth, door == "closed", trap, clutter)
+    knobs = Knobs(objects, goals, occlusion_depth, door == "closed", trap)
     static.check_capacity(knobs)
+    knobs = dataclasses.replace(knobs, clutter=_clutter(objects_from, out.parent))
     with console.status("generating (grounding the witness in the simulator)..."):
         generated = generate_problem(
             knobs,

@@ -13,10 +13,10 @@ object to pick) and it rests where it is put: on a flat top, started upright and
 tipped 3 degrees toward each side, it comes back to lean at most 2 degrees and move at most
 5 mm in 4 s (:func:`~stalm.world.stable_rest.why_it_does_not_rest`, with the centre of mass
 of its convex pieces; a toy that only balances stands still when started upright, and falls
-over in a scene). Of the 1,000 ``random_urdfs``, 492 topple, slide or only balance, and 475
-are too low or too thin at a slot's scale: 32 are kept (:data:`BUILTIN_MESHES`; scanning the
-folder takes about 80 s). A mesh is never turned onto another face here: a problem file
-stands an object on its file's own bottom.
+over in a scene). Of the 1,000 ``random_urdfs``, 492 topple, slide or only balance, 475 are
+too low or too thin at a slot's scale and one cannot be read: 32 are kept
+(:data:`BUILTIN_MESHES`; scanning the folder takes about 80 s). A mesh is never turned onto
+another face here: a problem file stands an object on its file's own bottom.
 """
 
 from __future__ import annotations
@@ -86,25 +86,38 @@ class ClutterSet:
 def fitted_scale(path: Path) -> float:
     """The scale at which the OBJ at ``path`` fills a slot: the longer side of its footprint
     :data:`SLOT_SIDE`, or its height :data:`TALLEST`, whichever is reached first; rounded
-    down to the 4 places a generated file keeps, so that the file's object is the one checked."""
+    down to the places a generated file keeps (:func:`scale_places`), so that the file's object
+    is the one checked."""
     hx, hy, hz = mesh_outline(path, 1.0).half_extents
     scale = min(SLOT_SIDE / (2 * max(hx, hy)), TALLEST / (2 * hz))
-    return math.floor(scale * 1e4) / 1e4
+    places = scale_places(scale)
+    return math.floor(scale * 10**places) / 10**places
 
 
-def why_left_out(mesh: ClutterMesh, base: Path | None = None) -> str | None:
-    """Why ``mesh`` cannot be clutter (a few words), or None when it can: at its scale it is
-    too low or too thin, or it does not rest upright where it is put."""
+def scale_places(scale: float) -> int:
+    """The decimal places a generated file keeps of a mesh's ``scale``: 4, as of every
+    coordinate, and below 0.001 as many as keep 4 significant digits (a mesh drawn in
+    millimetres is scaled by about 0.0005, which 4 places would cut by up to a fifth)."""
+    if scale >= 1e-3 or scale <= 0:
+        return 4
+    return 3 - math.floor(math.log10(scale))
+
+
+def why_left_out(mesh: ClutterMesh, base: Path | None = None) -> tuple[str, str] | None:
+    """Why ``mesh`` cannot be clutter, as (a few words that group with others' reasons, the
+    detail), or None when it can: at its scale it is too low or too thin, or it does not rest
+    upright where it is put."""
     from stalm.world.stable_rest import why_it_does_not_rest  # PyBullet: only when checking
 
     problem = _alone_on_a_table(mesh, base)
     hx, hy, hz = problem.spec.objects[0].half_extents
     if 2 * hz < LOWEST:
-        return f"lower than {LOWEST * 100:g} cm"
+        return f"lower than {LOWEST * 100:g} cm", f"{2 * hz * 100:.2g} cm tall"
     if 2 * min(hx, hy) < NARROWEST:
-        return f"thinner than {NARROWEST * 100:g} cm"
-    if why_it_does_not_rest(problem, "thing") is not None:
-        return "topple, slide or only balance as loaded"
+        return f"thinner than {NARROWEST * 100:g} cm", f"{2 * min(hx, hy) * 100:.2g} cm wide"
+    falls = why_it_does_not_rest(problem, "thing")
+    if falls is not None:
+        return "topple, slide or only balance as loaded", falls
     return None
 
 
@@ -154,30 +167,29 @@ def clutter_from(
         raise StalmError(f"--objects-from {source}: no .obj file in the folder")
     kept: list[ClutterMesh] = []
     left_out: list[tuple[str, str]] = []
-    first_error = ""
+    first = ""
     for index, path in enumerate(files):
         progress(f"checking meshes for clutter: {path.name} ({index + 1} of {len(files)})")
-        name = _problem_name(path.resolve(), problem_folder.resolve())
+        name = _problem_name(path, problem_folder)
         try:
             mesh = ClutterMesh(name, fitted_scale(resolve_mesh_path(name, problem_folder)))
             reason = why_left_out(mesh, problem_folder)
         except (StalmError, ValueError) as error:
-            mesh, reason = None, _unreadable(error)
-            first_error = first_error or f"{path.name}: {error}".splitlines()[0]
-        if mesh is None or reason is not None:
-            left_out.append((str(path), reason or "unreadable"))
-        else:
+            reason = _unreadable(error), str(error).splitlines()[0]
+        if reason is None:
             kept.append(mesh)
+        else:
+            left_out.append((str(path), reason[0]))
+            first = first or f"{path.name}: {reason[1]}"
     made = ClutterSet(source, tuple(kept), tuple(left_out))
     if not kept:
-        why = f"; the first that could not be read: {first_error}" if first_error else ""
-        raise StalmError(f"{made.summary()}: none can be clutter{why}")
+        raise StalmError(f"{made.summary()}: none can be clutter; the first: {first}")
     return made
 
 
 def _unreadable(error: Exception) -> str:
-    """A reason that groups with its kind: a mesh V-HACD cannot decompose, or one unread."""
-    return "V-HACD could not decompose" if "V-HACD" in str(error) else "unreadable"
+    """A reason that groups with its kind: a mesh V-HACD failed on, or one unread."""
+    return "V-HACD failed" if "V-HACD" in str(error) else "unreadable"
 
 
 def _problem_name(path: Path, problem_folder: Path) -> str:
@@ -185,9 +197,10 @@ def _problem_name(path: Path, problem_folder: Path) -> str:
     import pybullet_data
 
     data = Path(pybullet_data.getDataPath()).resolve()
-    if path.is_relative_to(data):
-        return PYBULLET_DATA_PREFIX + path.relative_to(data).as_posix()
-    return Path(os.path.relpath(path, problem_folder)).as_posix()
+    if path.resolve().is_relative_to(data):
+        return PYBULLET_DATA_PREFIX + path.resolve().relative_to(data).as_posix()
+    # lexically, as a problem file's relative paths are resolved (a linked folder stays one)
+    return Path(os.path.relpath(os.path.abspath(path), os.path.abspath(problem_folder))).as_posix()
 
 
 BUILTIN_MESHES: tuple[ClutterMesh, ...] = (

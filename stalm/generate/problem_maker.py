@@ -23,6 +23,7 @@ import yaml
 
 from stalm.errors import StalmError
 from stalm.generate.arrange import Arrangement, Knobs, arrange
+from stalm.generate.clutter_meshes import scale_places
 from stalm.generate.layout import Layout, load_layout, scene
 from stalm.generate.witness import NoWitness, Witness, ground_witness
 from stalm.json_object import JsonObject
@@ -35,7 +36,8 @@ from stalm.world.problem_file import parse_problem
 from stalm.world.problem_record import problem_fields
 
 DECIMALS = 4
-"""Places every coordinate of a generated file is rounded to: 0.1 mm."""
+"""Places every coordinate of a generated file is rounded to: 0.1 mm (a mesh's scale keeps at
+least 4 significant digits: :func:`~stalm.generate.clutter_meshes.scale_places`)."""
 CANDIDATES = 25
 """Candidates drawn for one seed before giving up."""
 TIME_BUDGET_S = 600.0
@@ -190,7 +192,9 @@ def _rounded(value: Any) -> Any:
     if isinstance(value, float):
         return round(value, DECIMALS) + 0.0  # + 0.0: no -0.0 in the file
     if isinstance(value, dict):
-        return {k: _rounded(v) for k, v in value.items()}
+        return {
+            k: round(v, scale_places(v)) if k == "scale" else _rounded(v) for k, v in value.items()
+        }
     if isinstance(value, list | tuple):
         return [_rounded(v) for v in value]
     return value

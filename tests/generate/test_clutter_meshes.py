@@ -5,6 +5,7 @@ batched engine's boxes."""
 
 from __future__ import annotations
 
+import hashlib
 import shutil
 from pathlib import Path
 
@@ -78,12 +79,49 @@ def test_a_folder_inside_pybullet_data_is_named_as_the_package_names_it(tmp_path
 def test_a_folder_with_nothing_to_keep_is_an_error_naming_why(tmp_path: Path) -> None:
     folder = _folder(tmp_path, TOPPLES)
     (folder / "broken.obj").write_text("v 0 0 0\n")
-    with pytest.raises(StalmError, match=r"0 of 2 meshes kept .*none can be clutter; the first"):
+    with pytest.raises(
+        StalmError,
+        match=r"0 of 2 meshes kept .*clutter; the first: 003\.obj: started upright, it leaned",
+    ):
         clutter_from(str(folder), tmp_path)
     with pytest.raises(StalmError, match=r"no \.obj file in the folder"):
         clutter_from(str(tmp_path / "meshes" / "deeper"), tmp_path)
     with pytest.raises(StalmError, match=r"not a folder \(nor 'pybullet_data'\)"):
         clutter_from(str(tmp_path / "nowhere"), tmp_path)
+
+
+def test_a_linked_output_folder_names_meshes_as_a_problem_file_there_finds_them(
+    tmp_path: Path,
+) -> None:
+    """Names are made lexically, as the file's relative paths are read: an output folder that
+    is a link to elsewhere still finds meshes named from where the link stands."""
+    folder = _folder(tmp_path, KEPT)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (tmp_path / "out").symlink_to(elsewhere)
+    made = clutter_from(str(folder), tmp_path / "out")
+    assert made.meshes[0].mesh == f"../meshes/{KEPT}.obj"
+    assert resolve_mesh_path(made.meshes[0].mesh, tmp_path / "out") == folder / f"{KEPT}.obj"
+
+
+def test_a_mesh_drawn_in_millimetres_keeps_four_significant_digits_of_its_scale(
+    tmp_path: Path,
+) -> None:
+    source = (RANDOM_URDFS / KEPT / f"{KEPT}.obj").read_text().splitlines()
+    scaled = [
+        "v " + " ".join(f"{float(x) * 1000:.6f}" for x in line.split()[1:4])
+        if line.startswith("v ")
+        else line
+        for line in source
+    ]
+    (tmp_path / "mm.obj").write_text("\n".join(scaled) + "\n")
+    scale = fitted_scale(tmp_path / "mm.obj")
+    assert 1e-6 < scale < 1e-4 and float(f"{scale:.4g}") == scale != float(f"{scale:.3g}")
+    metres = fitted_scale(RANDOM_URDFS / KEPT / f"{KEPT}.obj")
+    assert scale == pytest.approx(metres / 1000, rel=1e-2)
+    knobs = Knobs(objects=14, clutter=(ClutterMesh("mm.obj", scale),))
+    made = generate_problem(knobs, 1, "mm", layout="storeroom", folder=tmp_path)
+    assert f"scale: {scale}\n" in made.text  # the file keeps the scale that was checked
 
 
 def test_a_fitted_mesh_fills_one_slot() -> None:
@@ -136,6 +174,7 @@ def test_a_mesh_that_only_balances_is_found_by_tipping_it() -> None:
     assert why_it_does_not_rest(_alone_on_a_table(resting, None), "thing") is None
 
 
+@pytest.mark.slow
 def test_a_scene_where_clutter_falls_is_dropped_for_the_next_candidate() -> None:
     """Meshes that only balance, as clutter: the candidates whose settled scene has one
     fallen are dropped, and the error after the last names one that did not rest."""
@@ -157,13 +196,25 @@ def test_a_generated_scene_of_mesh_clutter_rests_and_is_the_same_for_the_same_se
     assert unsettled_objects(first.problem) == ()  # every object rests where the file puts it
 
 
-def test_without_meshes_a_scene_is_drawn_as_before() -> None:
-    """The mesh draw is skipped when there are no meshes: no other draw moves (the kitchen's
-    committed suites and goldens are made the same)."""
-    plain = generate_problem(Knobs(objects=30), 4, "plain", layout="storeroom")
-    assert "mesh" not in plain.text
-    again = generate_problem(Knobs(30, clutter=()), 4, "plain", layout="storeroom")
-    assert plain.text == again.text
+PLAIN_HASHES = {
+    "kitchen": "ef86702b24b57717ad70cdd63647b1f0e6fd2604bd754774906af7e02fa70dee",
+    "storeroom": "d30d822c698b896ca673982736843f528fce681930b5d359c04e1796e167cd16",
+    "index": "824e44530ac67a9d22fcb2ebf59eb08d54cb9eaacbc9f0d7192ac34259c4451e",
+}
+"""SHA-256 of files made before mesh clutter existed (at ``0f023a1``): a kitchen-hall problem
+(12 objects, seed 0), a storeroom one (30 objects, seed 4) and a storeroom suite's index (one
+problem of 12, seed 0)."""
+
+
+def test_without_meshes_a_scene_is_made_as_before_mesh_clutter_existed(tmp_path: Path) -> None:
+    """The mesh draw is skipped when there are no meshes, the scene is not settled and the
+    index has no clutter: every earlier seed makes the same file, byte for byte."""
+    kitchen = generate_problem(Knobs(objects=12), 0, "plain").text
+    storeroom = generate_problem(Knobs(objects=30), 4, "plain", layout="storeroom").text
+    generate_suite("plain", (12,), 1, 0, tmp_path, Knobs(objects=12), layout="storeroom")
+    index = (tmp_path / "index.json").read_text()
+    made = {"kitchen": kitchen, "storeroom": storeroom, "index": index}
+    assert {k: hashlib.sha256(v.encode()).hexdigest() for k, v in made.items()} == PLAIN_HASHES
 
 
 def test_a_suite_records_its_clutter_and_a_plain_suite_its_old_index(tmp_path: Path) -> None:
