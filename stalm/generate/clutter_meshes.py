@@ -89,6 +89,8 @@ def fitted_scale(path: Path) -> float:
     down to the places a generated file keeps (:func:`scale_places`), so that the file's object
     is the one checked."""
     hx, hy, hz = mesh_outline(path, 1.0).half_extents
+    if min(max(hx, hy), hz) <= 0:
+        raise ValueError(f"{path.name} is flat: it has no height or no footprint")
     scale = min(SLOT_SIDE / (2 * max(hx, hy)), TALLEST / (2 * hz))
     places = scale_places(scale)
     return math.floor(scale * 10**places) / 10**places

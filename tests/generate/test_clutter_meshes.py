@@ -58,14 +58,15 @@ def test_a_folder_keeps_what_rests_upright_and_says_why_the_rest_was_left_out(
 ) -> None:
     folder = _folder(tmp_path, KEPT, TOPPLES, LOW, THIN)
     (folder / "broken.obj").write_text("v 0 0 0\n")  # no face: unreadable
+    (folder / "flat.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")  # no height
     (folder / "notes.txt").write_text("not a mesh")
     made = clutter_from(str(folder), tmp_path / "problems")
     assert [m.mesh for m in made.meshes] == [f"../meshes/{KEPT}.obj"]  # relative to the file
     assert made.meshes[0].scale == fitted_scale(folder / f"{KEPT}.obj")
     assert made.summary() == (
-        f"--objects-from {folder}: 1 of 5 meshes kept "
-        "(1 lower than 3 cm; 1 thinner than 2 cm; 1 topple, slide or only balance as loaded; "
-        "1 unreadable)"
+        f"--objects-from {folder}: 1 of 6 meshes kept "
+        "(2 unreadable; 1 lower than 3 cm; 1 thinner than 2 cm; "
+        "1 topple, slide or only balance as loaded)"
     )
 
 
