@@ -51,12 +51,34 @@ def _running(sid: int) -> list[str]:
     return [entry for entry in _session(sid) if entry.split()[1] != "Z"]
 
 
-def _poll(condition: Callable[[], bool], what: str, timeout_s: float = TIMEOUT_S) -> None:
+def _poll(
+    condition: Callable[[], bool], what: str | Callable[[], str], timeout_s: float = TIMEOUT_S
+) -> None:
+    """Wait for ``condition``; ``what`` (or what it returns, read at the time) names it."""
     deadline = time.monotonic() + timeout_s
     while not condition():
         if time.monotonic() > deadline:
-            raise AssertionError(f"gave up waiting for {what}")
+            raise AssertionError(f"gave up waiting for {what() if callable(what) else what}")
         time.sleep(0.02)
+
+
+def _why_alive(sid: int) -> str:
+    """What each process of session ``sid`` still running is doing: its parent, where the
+    kernel has it wait (``wchan``) and its signal masks. TERM (bit 15, 0x4000) pending in
+    ``SigPnd``/``ShdPnd`` means its handler has not run yet (a long C call); TERM in
+    ``SigIgn`` means the handler ran and the process is unwinding."""
+    lines = []
+    for entry in _running(sid):
+        pid = entry.split()[0]
+        try:
+            status = Path(f"/proc/{pid}/status").read_text().splitlines()
+            wchan = Path(f"/proc/{pid}/wchan").read_text()
+        except OSError:
+            continue  # ended meanwhile
+        keep = ("PPid", "SigPnd", "ShdPnd", "SigBlk", "SigIgn", "SigCgt", "Threads")
+        fields = [line.replace("\t", "") for line in status if line.split(":")[0] in keep]
+        lines.append(f"{entry} wchan={wchan or '-'} " + " ".join(fields))
+    return "; ".join(lines)
 
 
 def _foreground_signals() -> None:
@@ -231,7 +253,7 @@ def test_kill_9_of_an_experiment_ends_its_workers_and_the_next_run_clears_up(
         # the workers (about 450 MB each) and the resource tracker do not outlive it
         _poll(
             lambda: not _running(process.pid),
-            f"the processes of the killed run: {_running(process.pid)}",
+            lambda: f"the processes of the killed run to end: {_why_alive(process.pid)}",
             KILLED_RUN_ENDS_S,
         )
         _next_run(temp)
