@@ -16,6 +16,8 @@ worker that does not stop is killed).
 experiment's workers would wait on their pipe for ever (each holding its scene and model).
 :func:`end_with_parent` has a process sent a signal when its parent dies, so that it stops
 as a signal stops it (a worker unwinds its trial, removing its folders and Fast Downward).
+Fast Downward's own processes are started to be killed with their starter
+(:func:`child_ends_with_this_process`): a process killed outright leaves no search running.
 
 :func:`end_helper_processes` stops multiprocessing's resource tracker, which Python 3.11 leaves
 to end on its own after stalm has exited: an orphan, which an init that reaps nothing (some
@@ -31,7 +33,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import FrameType
 
@@ -147,6 +149,25 @@ def end_with_parent(signum: int, parent: int) -> None:
         watcher.start()
     if os.getppid() != parent:
         os.kill(os.getpid(), signum)
+
+
+def child_ends_with_this_process() -> Callable[[], None]:
+    """A ``preexec_fn`` for a child process (Fast Downward) that must not outlive this one:
+    on Linux the kernel kills the child when this process ends, even by ``kill -9`` or the
+    out-of-memory killer, where no ``finally`` runs to kill it (an orphaned search would run
+    on, unbounded: its time limit is this process's ``subprocess.run`` timeout). Elsewhere
+    it does nothing; an ended parent is then the next run's leftover to clear.
+
+    The signal is tied to the thread that starts the child, which waits for it; a parent
+    that ended before the child asked is found by its pid."""
+    parent = os.getpid()
+
+    def ask() -> None:
+        if sys.platform.startswith("linux") and _parent_death_signal(signal.SIGKILL):
+            if os.getppid() != parent:
+                os.kill(os.getpid(), signal.SIGKILL)
+
+    return ask
 
 
 def _parent_death_signal(signum: int) -> bool:

@@ -131,3 +131,59 @@ def test_the_watcher_signals_once_the_parent_is_another(monkeypatch) -> None:
         _poll(lambda: heard == [signal.SIGUSR1] * 4, "the watcher's signal and the check's")
     finally:
         signal.signal(signal.SIGUSR1, previous)
+
+
+STARTER = """
+import subprocess, sys
+from stalm import stopping
+child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"],
+                         preexec_fn=stopping.child_ends_with_this_process())
+print(child.pid, flush=True)
+child.wait()
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux's parent-death signal")
+def test_a_child_started_to_end_with_its_starter_is_killed_with_it() -> None:
+    """As Fast Downward is started: its starter killed with SIGKILL (no ``finally`` runs to
+    kill it), the child does not run on for its two minutes."""
+    starter = subprocess.Popen(
+        [sys.executable, "-c", STARTER],
+        stdout=subprocess.PIPE,
+        text=True,
+        env=_env(),
+        start_new_session=True,
+    )
+    try:
+        assert starter.stdout is not None
+        child = int(starter.stdout.readline())
+        assert _running(child)
+        starter.kill()
+        starter.wait()
+        _poll(lambda: not _running(child), "the child to end with its starter")
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(starter.pid, signal.SIGKILL)
+        starter.wait()
+
+
+def test_a_child_whose_starter_ended_before_it_asked_ends_at_once() -> None:
+    """The starter's pid is read when the ``preexec_fn`` is made: a child whose parent is
+    another by the time it asks (here: made in this process, run in a child of a child)
+    kills itself rather than run unwatched."""
+    from stalm import stopping
+
+    ask = stopping.child_ends_with_this_process()
+    pid = os.fork()
+    if pid == 0:  # the child: its parent is this test's process, not "the starter"
+        try:
+            grandchild = os.fork()
+            if grandchild == 0:
+                ask()  # made in the test's process: its parent (the child) is another
+                os._exit(0)  # not reached: it killed itself
+            _, status = os.waitpid(grandchild, 0)
+            os._exit(0 if os.WIFSIGNALED(status) and os.WTERMSIG(status) == 9 else 1)
+        finally:
+            os._exit(2)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from stalm import stopping
 from stalm.domain.actions import DiscreteAction
 from stalm.domain.serialize import discrete_from_json
 from stalm.domain.vocabulary import Vocabulary
@@ -88,6 +89,7 @@ def translate_task(work: Path, time_limit_s: float) -> None:
         text=True,
         timeout=time_limit_s,
         check=False,
+        preexec_fn=stopping.child_ends_with_this_process(),
     )
     if translate.returncode != 0:
         if "MemoryError" in translate.stderr or translate.returncode < 0:
@@ -119,7 +121,10 @@ def search_task(
     plan_file = work / "sas_plan"
     plan_file.unlink(missing_ok=True)
 
-    def limit_memory() -> None:
+    ends_with_this_process = stopping.child_ends_with_this_process()
+
+    def prepare_child() -> None:
+        ends_with_this_process()
         if memory_limit_mb is not None:
             size = memory_limit_mb * 1024 * 1024
             resource.setrlimit(resource.RLIMIT_AS, (size, size))
@@ -133,7 +138,7 @@ def search_task(
             text=True,
             timeout=time_limit_s,
             check=False,
-            preexec_fn=limit_memory if memory_limit_mb is not None else None,
+            preexec_fn=prepare_child,
         )
     if not plan_file.exists():
         return SearchRun(None, run.stdout, run.returncode)

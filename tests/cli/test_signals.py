@@ -276,11 +276,17 @@ def test_the_folder_a_solve_killed_with_kill_9_leaves_goes_with_the_next_run(
         assert process.poll() is None, "the solve ended before Fast Downward ran"
         os.kill(process.pid, signal.SIGKILL)
         process.wait()
+        # Fast Downward (its translator or its search) is killed with it, not left running
+        _poll(
+            lambda: not _running(process.pid),
+            lambda: f"Fast Downward to end with the killed solve: {_why_alive(process.pid)}",
+            KILLED_RUN_ENDS_S,
+        )
         left = [p.name for p in temp.iterdir()]
         assert left and all(name.startswith(f"stalm-fd-{process.pid}-") for name in left), left
         _next_run(temp)
         assert sorted(p.name for p in temp.iterdir()) == []
     finally:
         with contextlib.suppress(ProcessLookupError):
-            os.killpg(process.pid, signal.SIGKILL)  # Fast Downward, if it still runs
+            os.killpg(process.pid, signal.SIGKILL)
         process.wait()

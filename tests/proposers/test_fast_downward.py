@@ -135,3 +135,27 @@ def test_queries_with_consecutive_seeds_share_no_fast_downward_search() -> None:
     assert all(0 <= seed < 2**31 for seed in seeds)
     assert fast_downward.plan_seed(7, 2) == fast_downward.plan_seed(7, 2)
     assert 0 <= fast_downward.plan_seed(-1, 0) < 2**31
+
+
+def test_fast_downwards_processes_are_started_to_end_with_stalm(
+    problems, initial_literals, monkeypatch
+) -> None:
+    """Its translator and its search are started with the parent-death ``preexec_fn``
+    (``tests/test_stopping.py`` shows that it kills such a child with its starter), and
+    still plan: a worker killed with ``kill -9`` leaves no search running."""
+    started: dict[str, object] = {}
+    real_run = subprocess.run
+
+    def run_recording_its_preexec_fn(command, **options):
+        what = "translate" if "fast_downward.translate" in command else Path(command[0]).name
+        started[what] = options.get("preexec_fn")
+        return real_run(command, **options)
+
+    monkeypatch.setattr(fast_downward.subprocess, "run", run_recording_its_preexec_fn)
+    problem = problems["P2"]
+    proposal = SymbolicProposer().propose(
+        ProposalRequest(problem, problem.initial_state, frozenset(initial_literals("P2")), 1, 0)
+    )
+    assert proposal.plans
+    assert set(started) == {"translate", downward_binary().name}
+    assert all(callable(preexec_fn) for preexec_fn in started.values())
