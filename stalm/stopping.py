@@ -17,7 +17,7 @@ experiment's workers would wait on their pipe for ever (each holding its scene a
 :func:`end_with_parent` has a process sent a signal when its parent dies, so that it stops
 as a signal stops it (a worker unwinds its trial, removing its folders and Fast Downward).
 Fast Downward's own processes are started to be killed with their starter
-(:func:`child_ends_with_this_process`): a process killed outright leaves no search running.
+(:func:`run_child`): a process killed outright leaves no search running.
 
 :func:`end_helper_processes` stops multiprocessing's resource tracker, which Python 3.11 leaves
 to end on its own after stalm has exited: an orphan, which an init that reaps nothing (some
@@ -30,12 +30,14 @@ import ctypes
 import gc
 import os
 import signal
+import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from types import FrameType
+from typing import Any
 
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
 """What a scheduler, Ctrl-C, a closed terminal or ``kill PID`` sends to end a process."""
@@ -151,23 +153,53 @@ def end_with_parent(signum: int, parent: int) -> None:
         os.kill(os.getpid(), signum)
 
 
-def child_ends_with_this_process() -> Callable[[], None]:
-    """A ``preexec_fn`` for a child process (Fast Downward) that must not outlive this one:
-    on Linux the kernel kills the child when this process ends, even by ``kill -9`` or the
-    out-of-memory killer, where no ``finally`` runs to kill it (an orphaned search would run
-    on, unbounded: its time limit is this process's ``subprocess.run`` timeout). Elsewhere
-    it does nothing; an ended parent is then the next run's leftover to clear.
+def run_child(
+    command: Sequence[str],
+    *,
+    timeout: float,
+    capture_output: bool = False,
+    prepare: Callable[[], None] | None = None,
+    **options: Any,
+) -> subprocess.CompletedProcess[Any]:
+    """``subprocess.run(command, timeout=..., check=False, ...)`` for a child (Fast Downward,
+    V-HACD) that must not outlive this process: on Linux the kernel kills it when this
+    process ends, also by ``kill -9`` or the out-of-memory killer, where no ``finally`` runs
+    to kill it (an orphaned search would run on unbounded: its time limit is this process's
+    timeout). ``prepare`` runs in the child before it starts (a memory limit).
 
-    The signal is tied to the thread that starts the child, which waits for it; a parent
-    that ended before the child asked is found by its pid."""
+    Asking for that signal needs a ``preexec_fn``, and with one Python runs its at-fork hooks
+    around the fork: a stop signal's handler run inside a hook has its :class:`Stopped`
+    swallowed ("Exception ignored"), and the stop is lost. So the stop signals are held while
+    the child is forked and delivered as soon as it has started, where they unwind as
+    anywhere else (the child is killed and waited for, as by ``subprocess.run``)."""
+    if capture_output:
+        options.update(stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     parent = os.getpid()
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
 
-    def ask() -> None:
+    def start_child() -> None:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
         if sys.platform.startswith("linux") and _parent_death_signal(signal.SIGKILL):
-            if os.getppid() != parent:
+            if os.getppid() != parent:  # ended before the signal was asked for
                 os.kill(os.getpid(), signal.SIGKILL)
+        if prepare is not None:
+            prepare()
 
-    return ask
+    try:
+        process = subprocess.Popen(command, preexec_fn=start_child, **options)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+    with process:
+        try:
+            stdout, stderr = process.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+            raise
+        except BaseException:
+            process.kill()
+            raise
+    return subprocess.CompletedProcess(command, process.returncode, stdout, stderr)
 
 
 def _parent_death_signal(signum: int) -> bool:

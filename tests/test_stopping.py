@@ -134,17 +134,15 @@ def test_the_watcher_signals_once_the_parent_is_another(monkeypatch) -> None:
 
 
 STARTER = """
-import subprocess, sys
+import sys
 from stalm import stopping
-child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"],
-                         preexec_fn=stopping.child_ends_with_this_process())
-print(child.pid, flush=True)
-child.wait()
+stopping.run_child([sys.executable, "-c", "import os, time; print(os.getpid(), flush=True); "
+                    "time.sleep(120)"], timeout=300)
 """
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux's parent-death signal")
-def test_a_child_started_to_end_with_its_starter_is_killed_with_it() -> None:
+def test_a_child_run_to_end_with_its_starter_is_killed_with_it() -> None:
     """As Fast Downward is started: its starter killed with SIGKILL (no ``finally`` runs to
     kill it), the child does not run on for its two minutes."""
     starter = subprocess.Popen(
@@ -167,23 +165,51 @@ def test_a_child_started_to_end_with_its_starter_is_killed_with_it() -> None:
         starter.wait()
 
 
-def test_a_child_whose_starter_ended_before_it_asked_ends_at_once() -> None:
-    """The starter's pid is read when the ``preexec_fn`` is made: a child whose parent is
-    another by the time it asks (here: made in this process, run in a child of a child)
-    kills itself rather than run unwatched."""
+def test_run_child_returns_what_subprocess_run_would() -> None:
+    """The output, the exit code, a ``prepare`` run in the child, and a timeout that kills
+    the child and is raised."""
     from stalm import stopping
 
-    ask = stopping.child_ends_with_this_process()
-    pid = os.fork()
-    if pid == 0:  # the child: its parent is this test's process, not "the starter"
-        try:
-            grandchild = os.fork()
-            if grandchild == 0:
-                ask()  # made in the test's process: its parent (the child) is another
-                os._exit(0)  # not reached: it killed itself
-            _, status = os.waitpid(grandchild, 0)
-            os._exit(0 if os.WIFSIGNALED(status) and os.WTERMSIG(status) == 9 else 1)
-        finally:
-            os._exit(2)
-    _, status = os.waitpid(pid, 0)
-    assert os.waitstatus_to_exitcode(status) == 0
+    done = stopping.run_child(
+        [sys.executable, "-c", "import os, sys; print(os.environ['SEEN']); sys.exit(3)"],
+        timeout=TIMEOUT_S,
+        capture_output=True,
+        text=True,
+        prepare=lambda: os.environ.__setitem__("SEEN", "prepared"),
+    )
+    assert (done.returncode, done.stdout, done.stderr) == (3, "prepared\n", "")
+    with pytest.raises(subprocess.TimeoutExpired):
+        stopping.run_child([sys.executable, "-c", "import time; time.sleep(60)"], timeout=0.5)
+
+
+STOPPED_WHILE_STARTING = """
+import logging  # as in stalm: it registers at-fork hooks, Python code run around a fork
+import os, signal, sys
+from stalm import stopping
+stopping.install()
+# the signal arrives as the child is forked (a process of 450 MB takes milliseconds to fork)
+os.register_at_fork(before=lambda: os.kill(os.getpid(), signal.SIGTERM))
+try:
+    stopping.run_child([sys.executable, "-c", "import time; time.sleep(5)"], timeout=120)
+except stopping.Stopped as stop:
+    print(stop, flush=True)
+    sys.exit(stop.exit_code)
+print("the stop was lost", flush=True)
+"""
+
+
+def test_a_stop_signal_while_a_child_is_forked_is_not_lost() -> None:
+    """A TERM that arrives while the child is forked stops the starter once the child has
+    started, and the child is killed: it is not swallowed by an at-fork hook (Python runs
+    them around the fork a ``preexec_fn`` needs), with the child run to its end."""
+    done = subprocess.run(
+        [sys.executable, "-c", STOPPED_WHILE_STARTING],
+        capture_output=True,
+        text=True,
+        env=_env(),
+        timeout=TIMEOUT_S,
+        check=False,
+    )
+    assert (done.returncode, done.stdout) == (128 + signal.SIGTERM, "stopped by SIGTERM\n"), (
+        done.stderr
+    )

@@ -74,7 +74,7 @@ def translate_task(work: Path, time_limit_s: float) -> None:
     writing ``task.sas`` there. Raises :class:`DownwardGaveUp` when it runs out of memory or
     is killed, :class:`subprocess.TimeoutExpired` past ``time_limit_s``, and
     :class:`StalmError` with its message if it rejects the task (a bug in the PDDL)."""
-    translate = subprocess.run(
+    translate = stopping.run_child(
         [
             sys.executable,
             "-m",
@@ -88,8 +88,6 @@ def translate_task(work: Path, time_limit_s: float) -> None:
         capture_output=True,
         text=True,
         timeout=time_limit_s,
-        check=False,
-        preexec_fn=stopping.child_ends_with_this_process(),
     )
     if translate.returncode != 0:
         if "MemoryError" in translate.stderr or translate.returncode < 0:
@@ -121,24 +119,20 @@ def search_task(
     plan_file = work / "sas_plan"
     plan_file.unlink(missing_ok=True)
 
-    ends_with_this_process = stopping.child_ends_with_this_process()
-
-    def prepare_child() -> None:
-        ends_with_this_process()
+    def limit_memory() -> None:
         if memory_limit_mb is not None:
             size = memory_limit_mb * 1024 * 1024
             resource.setrlimit(resource.RLIMIT_AS, (size, size))
 
     with (work / "task.sas").open() as task:
-        run = subprocess.run(
+        run = stopping.run_child(
             [str(downward_binary()), "--search", search],
             stdin=task,
             cwd=work,
             capture_output=True,
             text=True,
             timeout=time_limit_s,
-            check=False,
-            preexec_fn=prepare_child,
+            prepare=limit_memory if memory_limit_mb is not None else None,
         )
     if not plan_file.exists():
         return SearchRun(None, run.stdout, run.returncode)

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from stalm import stopping
 from stalm.cache_dir import stalm_cache_dir
 from stalm.errors import StalmError
 from stalm.world.mesh_files import MeshOutline, mesh_outline, read_obj
@@ -106,11 +107,10 @@ def _decompose(source: Path, target: Path) -> None:
     try:
         arguments = [str(source), temporary, log, str(VHACD_RESOLUTION)]
         try:
-            subprocess.run(
+            stopping.run_child(  # killed with this process, even by kill -9
                 [sys.executable, "-c", _VHACD_SCRIPT, *arguments],
                 stdout=subprocess.DEVNULL,
                 stderr=subprocess.DEVNULL,
-                check=False,
                 timeout=VHACD_TIMEOUT_S,
             )
         except subprocess.TimeoutExpired:

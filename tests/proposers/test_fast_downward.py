@@ -6,6 +6,7 @@ import subprocess
 import time
 from pathlib import Path
 
+from stalm import stopping
 from stalm.domain.mdp import Domain
 from stalm.planners.stalm import StalmPlanner
 from stalm.proposers import fast_downward
@@ -140,22 +141,20 @@ def test_queries_with_consecutive_seeds_share_no_fast_downward_search() -> None:
 def test_fast_downwards_processes_are_started_to_end_with_stalm(
     problems, initial_literals, monkeypatch
 ) -> None:
-    """Its translator and its search are started with the parent-death ``preexec_fn``
-    (``tests/test_stopping.py`` shows that it kills such a child with its starter), and
+    """Its translator and its search are started by ``stopping.run_child``
+    (``tests/test_stopping.py`` shows that such a child is killed with its starter), and
     still plan: a worker killed with ``kill -9`` leaves no search running."""
-    started: dict[str, object] = {}
-    real_run = subprocess.run
+    started: list[str] = []
+    real_run_child = stopping.run_child
 
-    def run_recording_its_preexec_fn(command, **options):
-        what = "translate" if "fast_downward.translate" in command else Path(command[0]).name
-        started[what] = options.get("preexec_fn")
-        return real_run(command, **options)
+    def run_child_recording(command, **options):
+        started.append("translate" if "fast_downward.translate" in command else command[0])
+        return real_run_child(command, **options)
 
-    monkeypatch.setattr(fast_downward.subprocess, "run", run_recording_its_preexec_fn)
+    monkeypatch.setattr(fast_downward.stopping, "run_child", run_child_recording)
     problem = problems["P2"]
     proposal = SymbolicProposer().propose(
         ProposalRequest(problem, problem.initial_state, frozenset(initial_literals("P2")), 1, 0)
     )
     assert proposal.plans
-    assert set(started) == {"translate", downward_binary().name}
-    assert all(callable(preexec_fn) for preexec_fn in started.values())
+    assert set(started) == {"translate", str(downward_binary())}
