@@ -20,11 +20,11 @@ from dataclasses import dataclass, field
 
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
-from stalm.json_object import JsonObject, record_json
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.feedback_prompt import MAX_FAILED_PLANS, FailedPlan, with_feedback
 from stalm.llm.problem_prompt import problem_prompt
 from stalm.llm.prompt import PromptOptions
+from stalm.planners.direct_record import DirectRecord
 from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
 from stalm.proposers.model_backend import use_constraint
@@ -46,7 +46,7 @@ class ReplanningConstants:
 
 
 @dataclass(frozen=True)
-class ReplanningDetails:
+class ReplanningDetails(DirectRecord):
     """Iterative-Replanning's record of a trial: the model asked, its queries (and those that
     showed failed plans), the rounds of queries at a state, the steps forced after a round's
     failures."""
@@ -56,14 +56,6 @@ class ReplanningDetails:
     queries_with_feedback: int
     rounds: int
     forced_steps: int
-
-    @property
-    def proposer(self) -> None:
-        """The method asks its model directly, through no task-plan proposer."""
-        return None
-
-    def to_json(self) -> JsonObject:
-        return record_json(self)
 
 
 def failed_plan(plan: ConcretePlan) -> FailedPlan:

@@ -34,9 +34,10 @@ from stalm.domain.mdp import Domain
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
-from stalm.json_object import JsonObject, record_json
+from stalm.json_object import JsonObject
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.saycan_prompt import saycan_prompt
+from stalm.planners.direct_record import DirectRecord
 from stalm.predicates.literals import GroundLiteral
 from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
@@ -175,7 +176,7 @@ class DecisionTally:
 
 
 @dataclass(frozen=True)
-class SayCanDetails:
+class SayCanDetails(DirectRecord):
     """EP-SayCan's record of a trial: the model asked and what its decisions did."""
 
     backend: str
@@ -183,14 +184,6 @@ class SayCanDetails:
     zero_score_queries: int
     kappa_failures: int
     decisions: tuple[SayCanDecision, ...]
-
-    @property
-    def proposer(self) -> None:
-        """SayCan asks its model directly, through no task-plan proposer."""
-        return None
-
-    def to_json(self) -> JsonObject:
-        return record_json(self)
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,7 @@ from stalm.domain.params import Action
 from stalm.domain.samplers import SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.json_object import JsonObject, record_json
+from stalm.planners.direct_record import DirectRecord
 from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, IterationRecord
 from stalm.planners.pddlstream.execute import build_action, learn_from
 from stalm.planners.pddlstream.instances import Streams
@@ -57,7 +57,7 @@ Progress = Callable[[str], None]
 
 
 @dataclass(frozen=True)
-class PddlStreamDetails:
+class PddlStreamDetails(DirectRecord):
     """PDDLStream's record of a trial: each iteration (:class:`IterationRecord`), the real
     objects and complexity limit it ended with, what the streams and tests did, Fast
     Downward's seconds, and the plan steps whose execution failed. Seconds are to the
@@ -76,14 +76,6 @@ class PddlStreamDetails:
     test_seconds: float
     collision_tests: int
     execution_failures: tuple[str, ...]
-
-    @property
-    def proposer(self) -> None:
-        """The method proposes its own plans (Fast Downward over optimistic objects)."""
-        return None
-
-    def to_json(self) -> JsonObject:
-        return record_json(self)
 
 
 class PDDLStreamPlanner:
