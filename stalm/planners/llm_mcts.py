@@ -22,7 +22,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable
 from contextlib import nullcontext
-from dataclasses import dataclass, replace
+from dataclasses import KW_ONLY, dataclass, field, replace
 
 import numpy as np
 
@@ -89,6 +89,7 @@ class LlmMctsDetails:
         return record_json(self, omitted_when_none={"reused_root_visits"})
 
 
+@dataclass(eq=False)
 class LLMPrior:
     """A :class:`~stalm.search.puct.PriorSource` that asks a task-plan proposer once per node.
 
@@ -105,36 +106,19 @@ class LLMPrior:
     quickly; a query under way is never cut off: a trial overruns by at most one query.
     """
 
-    def __init__(
-        self,
-        problem: Problem,
-        proposer: TaskPlanProposer,
-        literals_of: LiteralsOf,
-        *,
-        trial_seed: int,
-        samples: int,
-        uniform_weight: float = UNIFORM_WEIGHT,
-        deadline: Callable[[], float] | None = None,
-        progress: Progress | None = None,
-        on_query: QueryHook | None = None,
-        timing: Timing | None = None,
-    ) -> None:
-        self.problem = problem
-        self.proposer = proposer
-        self.literals_of = literals_of
-        self.trial_seed = trial_seed
-        self.samples = samples
-        self.uniform_weight = uniform_weight
-        self.deadline = deadline
-        self.progress = progress
-        self.on_query = on_query
-        self.timing = timing
-        self._votes: dict[State, tuple[DiscreteAction, ...]] = {}
-        self._stats = PriorStats()
-
-    @property
-    def stats(self) -> PriorStats:
-        return self._stats
+    problem: Problem
+    proposer: TaskPlanProposer
+    literals_of: LiteralsOf
+    _: KW_ONLY
+    trial_seed: int
+    samples: int
+    uniform_weight: float = UNIFORM_WEIGHT
+    deadline: Callable[[], float] | None = None
+    progress: Progress | None = None
+    on_query: QueryHook | None = None
+    timing: Timing | None = None
+    stats: PriorStats = field(default_factory=PriorStats, init=False)
+    _votes: dict[State, tuple[DiscreteAction, ...]] = field(default_factory=dict, init=False)
 
     def new_tree(self) -> None:
         """Forget every prior: the next search builds a new tree, whose nodes ask anew."""
@@ -161,9 +145,10 @@ class LLMPrior:
         """The state's votes, asked for now if needed; None once the deadline has passed."""
         votes = self._votes.get(state)
         if votes is None:
-            if self._past_deadline():
-                self._stats = replace(
-                    self._stats, deadline_fallbacks=self._stats.deadline_fallbacks + 1
+            deadline = self._deadline_now()
+            if deadline is not None and time.monotonic() >= deadline:
+                self.stats = replace(
+                    self.stats, deadline_fallbacks=self.stats.deadline_fallbacks + 1
                 )
                 return None
             votes = self._ask(state, actions)
@@ -173,14 +158,10 @@ class LLMPrior:
     def _deadline_now(self) -> float | None:
         return None if self.deadline is None else self.deadline()
 
-    def _past_deadline(self) -> bool:
-        deadline = self._deadline_now()
-        return deadline is not None and time.monotonic() >= deadline
-
     def _ask(self, state: State, actions: tuple[DiscreteAction, ...]) -> tuple[DiscreteAction, ...]:
         """Query the proposer for ``state``; the legal first actions of its plans."""
         if self.progress is not None:
-            self.progress(f"llm-mcts: prior for new node #{self._stats.states + 1}")
+            self.progress(f"llm-mcts: prior for new node #{self.stats.states + 1}")
         tick = time.monotonic()
         literals = frozenset(self.literals_of(state))
         predicate_seconds = time.monotonic() - tick
@@ -199,8 +180,8 @@ class LLMPrior:
         legal = set(actions)
         votes = tuple(plan[0] for plan in proposal.plans if plan and plan[0] in legal)
         replies = len(proposal.plans) + len(proposal.unparseable) + len(proposal.no_plan)
-        stats = self._stats
-        self._stats = replace(
+        stats = self.stats
+        self.stats = replace(
             stats,
             states=stats.states + 1,
             llm_calls=stats.llm_calls + proposal.calls,
