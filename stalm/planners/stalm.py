@@ -42,8 +42,6 @@ from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import stalm_proposal_seed
 from stalm.trial.step_log import RoundLessons, StepRecord, proposal_record
 
-__all__ = ["StalmPlanner", "StalmStep", "StalmSteps"]
-
 log = logging.getLogger(__name__)
 """Each proposal round's plans and what Concretize made of them, at INFO."""
 
@@ -303,10 +301,10 @@ def StalmPlanner(
     The registry builds STaLM w/o UCT with its ``name`` and :func:`best_prefix_first_action`.
     """
     check_proposer(proposer)
+    run_settings = settings or RunSettings()
+    section = replace(run_settings.proposer, kind=proposer_kind(proposer))
     # N_budget: STaLM's row (STaLM w/o UCT's says the same)
-    run_settings = planner_rows()["stalm"].settings_for(
-        with_proposer_kind(settings or RunSettings(), proposer)
-    )
+    run_settings = planner_rows()["stalm"].settings_for(replace(run_settings, proposer=section))
     steps = StalmSteps(proposer, run_settings, no_goal_plan)
     return tree_planner(name, run_settings, steps, progress)
 
@@ -317,11 +315,6 @@ def proposer_kind(proposer: TaskPlanProposer) -> ProposerKind:
     if isinstance(proposer, SymbolicProposer):
         return "symbolic"
     return "noisy" if isinstance(proposer, NoisyProposer) else "llm"
-
-
-def with_proposer_kind(settings: RunSettings, proposer: TaskPlanProposer) -> RunSettings:
-    """``settings`` with ``proposer``'s kind as ``proposer.kind``."""
-    return replace(settings, proposer=replace(settings.proposer, kind=proposer_kind(proposer)))
 
 
 def proposer_for(settings: RunSettings) -> TaskPlanProposer:
