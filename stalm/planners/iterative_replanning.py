@@ -96,12 +96,9 @@ def IterativeReplanningPlanner(
     run_settings = settings or RunSettings()
     options = run_settings.prompt
     method = Replanning(backend, use_constraint(run_settings, backend), options)
+    occlusion = options.occlusion_predicates
     return OnlinePlanner(
-        "iterative-replanning",
-        run_settings,
-        method,
-        progress,
-        occlusion=options.occlusion_predicates,
+        "iterative-replanning", run_settings, method, progress, occlusion=occlusion
     )
 
 

@@ -29,11 +29,12 @@ import numpy as np
 from stalm.domain.actions import DiscreteAction
 from stalm.json_object import JsonObject, record_json
 from stalm.planners.registry_rows import planner_rows
+from stalm.planners.tree_step import tree_search
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.progress import Progress
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
-from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
+from stalm.search import LeafValue, SearchPolicies, SearchSettings
 from stalm.search.policies import ValueFunction
 from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
 from stalm.search.search_mdp import SearchMDP
@@ -255,13 +256,9 @@ def LlmMctsPlanner(
     (``search.batch``). The trial computes the occlusion literals only for a prompt that
     shows them."""
     run_settings = planner_rows()["llm-mcts"].settings_for(settings or RunSettings())
-    return OnlinePlanner(
-        "llm-mcts",
-        run_settings,
-        LlmMcts(proposer, run_settings, progress),
-        progress,
-        occlusion=run_settings.prompt.occlusion_predicates,
-    )
+    method = LlmMcts(proposer, run_settings, progress)
+    occlusion = run_settings.prompt.occlusion_predicates
+    return OnlinePlanner("llm-mcts", run_settings, method, progress, occlusion=occlusion)
 
 
 class LlmMctsSteps:
@@ -275,7 +272,7 @@ class LlmMctsSteps:
         self.prior = LLMPrior(
             trial.episode.problem,
             planner.proposer,
-            self._literals,
+            lambda state: trial.memo.of(state).literals,
             trial_seed=trial.seed,
             samples=settings.search.batch,
             deadline=lambda: trial.episode.deadline,
@@ -285,11 +282,6 @@ class LlmMctsSteps:
         )
         self.policies = llm_mcts_policies(settings.search.search_settings(), self.prior)
         self.calls_per_step: list[int] = []
-
-    def _literals(self, state: State) -> frozenset[GroundLiteral]:
-        """A node's literals, from the trial's predicate memo; the query that follows is
-        timed by the episode (its original seconds), not as tree search."""
-        return self.trial.memo.of(state).literals
 
     def decide(self) -> Decision:
         trial, prior = self.trial, self.prior
@@ -302,20 +294,8 @@ class LlmMctsSteps:
         else:
             prior.keep_only(tree)
         calls_before = prior.stats.llm_calls
-        with trial.phase("tree"):
-            result = warm_started_uct(
-                trial.domain,
-                trial.episode.state,
-                (),
-                trial.rng,
-                settings=search,
-                depth0=trial.done,
-                deadline=trial.episode.deadline,
-                policies=self.policies,
-                tree=tree,
-            )
+        result = tree_search(trial, (), search, self.policies, tree)
         self.calls_per_step.append(prior.stats.llm_calls - calls_before)
-        trial.simulations += result.counters.simulations
         if result.goal_plan:
             return result.goal_plan
         if result.best_action is not None:

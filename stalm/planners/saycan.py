@@ -299,15 +299,9 @@ class SayCanSteps:
     def decide(self) -> Decision:
         trial = self.trial
         trial.say(f"step {self.step}: predicates")
-        predicates = trial.episode.predicates()
+        literals = trial.episode.predicates().literals
         chosen = self.planner.decide(
-            trial.domain,
-            trial.episode,
-            predicates.literals,
-            trial.seed,
-            self.step,
-            trial.rng,
-            self.tally,
+            trial.domain, trial.episode, literals, trial.seed, self.step, trial.rng, self.tally
         )
         trial.replans = self.tally.queries
         if chosen is None:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import cast
 
@@ -22,7 +23,14 @@ from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
 from stalm.planners.tree_details import HcountLeaves, TreeDetails, TreeSettingsRecord
 from stalm.progress import Progress
-from stalm.search import ConcretePlan, SearchPolicies, SearchTree, warm_started_uct
+from stalm.search import (
+    ConcretePlan,
+    SearchPolicies,
+    SearchResult,
+    SearchSettings,
+    SearchTree,
+    warm_started_uct,
+)
 from stalm.search.hcount import HcountLeafValue
 from stalm.settings.tree import RunSettings
 from stalm.trial.online import Decision, OnlinePlanner, StartSteps, Trial
@@ -47,17 +55,8 @@ def tree_planner(
     (which plans with occlusions whatever the prompt options say), for the noisy one (which
     needs them to drop the step that clears an occluder) and for a leaf value that reads
     them (``leaf_occlusion``: Hcount)."""
-    return OnlinePlanner(
-        name,
-        settings,
-        start,
-        progress,
-        occlusion=(
-            leaf_occlusion
-            or settings.proposer.kind != "llm"
-            or settings.prompt.occlusion_predicates
-        ),
-    )
+    occlusion = settings.proposer.kind != "llm" or settings.prompt.occlusion_predicates
+    return OnlinePlanner(name, settings, start, progress, occlusion=leaf_occlusion or occlusion)
 
 
 @dataclass
@@ -146,19 +145,7 @@ def search(
     while True:
         searches += 1
         trial.say(f"step {done}: warm-started UCT, {within.budget} simulations")
-        with trial.phase("tree"):
-            result = warm_started_uct(
-                domain,
-                state,
-                warm,
-                trial.rng,
-                settings=within,
-                depth0=done,
-                deadline=trial.episode.deadline,
-                policies=policies,
-                tree=tree,
-            )
-        trial.simulations += result.counters.simulations
+        result = tree_search(trial, warm, within, policies, tree)
         if result.goal_plan:
             decided("tree_goal")
             return result.goal_plan
@@ -181,6 +168,31 @@ def search(
             decided("best_q_fallback")
             return (result.best_action,)
         warm = []
+
+
+def tree_search(
+    trial: Trial,
+    plans: Sequence[ConcretePlan],
+    settings: SearchSettings,
+    policies: SearchPolicies,
+    tree: SearchTree | None,
+) -> SearchResult:
+    """WarmStartedUCT from the current state (every online tree method's search, LLM-MCTS's
+    too), timed as the trial's 'tree' phase, its simulations counted."""
+    with trial.phase("tree"):
+        result = warm_started_uct(
+            trial.domain,
+            trial.episode.state,
+            plans,
+            trial.rng,
+            settings=settings,
+            depth0=trial.done,
+            deadline=trial.episode.deadline,
+            policies=policies,
+            tree=tree,
+        )
+    trial.simulations += result.counters.simulations
+    return result
 
 
 def _best_promising_action(tree: SearchTree, domain: Domain) -> Action | None:

@@ -36,8 +36,7 @@ class UctSteps:
         if not self.hcount:
             return SearchStep(trial, self.settings, policies)
         leaves = HcountLeafValue(trial.episode.problem, trial.memo)
-        hcount = replace(policies, value=leaves)
-        return SearchStep(trial, self.settings, hcount, leaves)
+        return SearchStep(trial, self.settings, replace(policies, value=leaves), leaves)
 
 
 def uct_planner(settings: RunSettings, progress: Progress | None, *, hcount: bool) -> OnlinePlanner:
