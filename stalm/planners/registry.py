@@ -114,9 +114,7 @@ def resolve(name: str, settings: RunSettings, problem: Problem | None = None) ->
 
 
 def build_planner(
-    name: str,
-    config: RunSettings | None = None,
-    progress: Progress | None = None,
+    name: str, config: RunSettings | None = None, progress: Progress | None = None
 ) -> Planner:
     """The planner ``name`` configured by ``config`` (defaults: the paper's settings)."""
     entry = planner_entry(name)

@@ -184,10 +184,7 @@ class Adaptive:
         text = optimistic_problem(knowledge, optimistic, self.names, fluents, self.goal)
         own = sum(len(v) for v in self.names.values())
         search = fast_downward(
-            text,
-            self.settings.search,
-            deadline - time.monotonic(),
-            self.settings.memory_limit_mb,
+            text, self.settings.search, deadline - time.monotonic(), self.settings.memory_limit_mb
         )
         self.fd_seconds += search.translate_s + search.search_s
         self.translate_seconds += search.translate_s

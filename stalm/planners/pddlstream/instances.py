@@ -20,13 +20,7 @@ from stalm.domain.actions import RELATIVE_DIRECTIONS
 from stalm.errors import StalmError
 from stalm.planners.pddlstream.knowledge import Knowledge
 from stalm.planners.pddlstream.pddl_text import Fact
-from stalm.planners.pddlstream.values import (
-    GRASP,
-    MOTION,
-    POSE,
-    is_optimistic,
-    optimistic_name,
-)
+from stalm.planners.pddlstream.values import GRASP, MOTION, POSE, is_optimistic, optimistic_name
 
 OUT = "?out"
 """Placeholder for an instance's output object in the facts it certifies."""

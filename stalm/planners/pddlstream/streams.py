@@ -42,13 +42,7 @@ from stalm.motion.grasps import (
     sample_grasp_angles,
     yaw_limited,
 )
-from stalm.motion.manipulation import (
-    PARKED,
-    ArmMotion,
-    Manipulator,
-    placing_hand,
-    route_segment,
-)
+from stalm.motion.manipulation import PARKED, ArmMotion, Manipulator, placing_hand, route_segment
 from stalm.motion.sweeps import Segment, SweptMotion, sweep, sweep_near
 from stalm.planners.pddlstream.values import SE2, GraspValue, MotionValue, PoseValue
 from stalm.world.grip_widths import too_wide
