@@ -45,9 +45,6 @@ from stalm.trial.query_seeds import state_request_seed
 from stalm.world.problem import Problem
 from stalm.world.state import State
 
-LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
-QueryHook = Callable[[Proposal], None]
-
 UNIFORM_WEIGHT = 0.5
 """Weight of the uniform distribution mixed into the prior's votes (the authors' 0.5), a
 constant of the method that the settings tree does not hold."""
@@ -109,14 +106,13 @@ class LLMPrior:
 
     problem: Problem
     proposer: TaskPlanProposer
-    literals_of: LiteralsOf
+    literals_of: Callable[[State], Iterable[GroundLiteral]]
     _: KW_ONLY
     trial_seed: int
     samples: int
-    uniform_weight: float = UNIFORM_WEIGHT
     deadline: Callable[[], float] | None = None
     progress: Progress | None = None
-    on_query: QueryHook | None = None
+    on_query: Callable[[Proposal], None] | None = None
     timing: Timing | None = None
     stats: PriorStats = field(default_factory=PriorStats, init=False)
     _votes: dict[State, tuple[DiscreteAction, ...]] = field(default_factory=dict, init=False)
@@ -138,7 +134,7 @@ class LLMPrior:
         votes = self._votes_for(state, actions)
         if votes is None:
             return uniform_prior(actions)
-        return vote_prior(votes, actions, self.samples, self.uniform_weight)
+        return vote_prior(votes, actions, self.samples, UNIFORM_WEIGHT)
 
     def _votes_for(
         self, state: State, actions: tuple[DiscreteAction, ...]
