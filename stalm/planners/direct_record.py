@@ -7,7 +7,8 @@ from stalm.json_object import JsonObject, record_json
 
 
 class DirectRecord:
-    """Base of such a method's frozen-dataclass record (a :class:`MethodDetails`)."""
+    """Base of such a method's frozen-dataclass record, a
+    :class:`~stalm.trial.details.MethodDetails`."""
 
     @property
     def proposer(self) -> None:
