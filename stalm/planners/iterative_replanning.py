@@ -147,12 +147,9 @@ class ReplanningRounds:
             self.queries += 1
             self.feedback_queries += bool(recent)
             trial.replans = self.feedback_queries
+            reason = proposal.unparseable[0] if proposal.unparseable else "no reply"
             task_plan = (
-                TaskPlan(proposal.plans[0])
-                if proposal.plans
-                else TaskPlan.unreadable(
-                    proposal.unparseable[0] if proposal.unparseable else "no reply"
-                )
+                TaskPlan(proposal.plans[0]) if proposal.plans else TaskPlan.unreadable(reason)
             )
             with trial.phase("concretize"):
                 concrete = concretize(

@@ -226,6 +226,7 @@ class SayCan:
     ) -> Action | None:
         """One SayCan decision in the current state: a feasible sampled action, or None."""
         problem, state, say = episode.problem, episode.state, episode.observer.message
+        batch, weight = self.settings.search.batch, self.constants.uniform_weight
         affordable = affordance(domain, state, literals)
         candidates = domain.legal_actions(state)
         history = [action.discrete for action in episode.executed]
@@ -233,12 +234,12 @@ class SayCan:
         for attempt in range(self.constants.max_queries_per_step):
             if episode.out_of_time():
                 return None
-            say(f"step {step}: asking for {self.settings.search.batch} replies")
+            say(f"step {step}: asking for {batch} replies")
             proposal = ask_for_task_plans(
                 self.backend,
                 Vocabulary.from_problem(problem),
                 saycan_prompt(problem, history),
-                self.settings.search.batch,
+                batch,
                 query_seed(seed, step, attempt),
                 constrained=self.constrained,
                 temperature=self.constants.temperature,
@@ -248,13 +249,8 @@ class SayCan:
             episode.failures.update("unparseable" for _ in proposal.unparseable)
             tally.queries += 1
             firsts = tuple(plan[0] for plan in proposal.plans)
-            scores = saycan_scores(
-                firsts,
-                len(proposal.replies) or self.settings.search.batch,
-                candidates,
-                affordable,
-                self.constants.uniform_weight,
-            )
+            n_replies = len(proposal.replies) or batch
+            scores = saycan_scores(firsts, n_replies, candidates, affordable, weight)
             while not episode.out_of_time():
                 best = saycan_choice(scores, rng, excluded)
                 if best is None:
