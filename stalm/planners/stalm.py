@@ -26,8 +26,7 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
 from stalm.planners.registry_rows import planner_rows
-from stalm.planners.tree_details import TreeDetails
-from stalm.planners.tree_step import begin_step, search, tree_details, tree_planner
+from stalm.planners.tree_step import TreeDetails, begin_step, search, tree_details, tree_planner
 from stalm.predicates.literals import GroundLiteral
 from stalm.progress import Progress
 from stalm.proposers.fast_downward import SymbolicProposer

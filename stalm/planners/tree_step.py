@@ -9,6 +9,11 @@ filled by the planner's registry row), with its two additions to the paper: tree
 (:meth:`stalm.trial.online.Trial.execute`) and the 'progress' execution rule, which searches
 on from the same root rather than spend an irreversible step of the horizon on a coin toss
 (:func:`_best_promising_action`; the authors' 'best_q' does).
+
+What a tree planner records of its run is :class:`TreeDetails`: which proposer it asked and how
+often, the settings that decide how it searched and executed, the root visits a kept tree
+brought into each step, and the step log; the noisy proposer adds what it injected, Hcount how
+its leaves' predicates were made.
 """
 
 from __future__ import annotations
@@ -21,8 +26,9 @@ from typing import cast
 
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
-from stalm.planners.tree_details import HcountLeaves, TreeDetails, TreeSettingsRecord
+from stalm.json_object import JsonObject, record_json
 from stalm.progress import Progress
+from stalm.proposers.noisy import NoiseRecord
 from stalm.search import (
     ConcretePlan,
     SearchPolicies,
@@ -32,13 +38,53 @@ from stalm.search import (
     warm_started_uct,
 )
 from stalm.search.hcount import HcountLeafValue
-from stalm.settings.tree import RunSettings
+from stalm.settings.tree import ExecutionRule, RunSettings
 from stalm.trial.online import Decision, OnlinePlanner, StartSteps, Trial
 from stalm.trial.step_log import DECISIONS, StepRecord, tree_record, warm_edges
 from stalm.world.state import State
 
 log = logging.getLogger(__name__)
 """Each real step's search and the rule that chose what it executes, at INFO."""
+
+
+@dataclass(frozen=True)
+class TreeSettingsRecord:
+    """The settings a tree planner's record keeps (``details.settings``): each is explained
+    where the run's settings tree declares it."""
+
+    reuse_tree: bool
+    feedback: bool
+    execution: ExecutionRule
+    kappa_tries: int
+    backtracks: int
+    goal_atom_lost: float
+
+
+@dataclass(frozen=True)
+class HcountLeaves:
+    """How Hcount's leaves got their predicates: computed from scratch, or brought forward
+    from the parent's with the cached update."""
+
+    predicates_from_scratch: int
+    predicates_brought_forward: int
+
+
+@dataclass(frozen=True)
+class TreeDetails:
+    """A tree planner's record (``proposer`` None and ``proposals`` 0 for UCT)."""
+
+    proposer: str | None
+    settings: TreeSettingsRecord
+    proposals: int
+    feedback_steps_learned: int
+    reused_root_visits: tuple[int, ...]
+    """Per real step whose tree was kept: the visits its root already had."""
+    step_log: tuple[StepRecord, ...]
+    noise: NoiseRecord | None = None
+    hcount_leaves: HcountLeaves | None = None
+
+    def to_json(self) -> JsonObject:
+        return record_json(self, omitted_when_none={"noise", "hcount_leaves"})
 
 
 def tree_planner(
