@@ -221,11 +221,8 @@ def llm_mcts_policies(settings: SearchSettings, prior: LLMPrior) -> SearchPolici
     """STaLM's search policies with PUCT over ``prior`` at discrete nodes and the prior asked
     for at every node the search creates (:class:`AskAtNewNodes`)."""
     plain = SearchPolicies.from_settings(settings)
-    return replace(
-        plain,
-        select_action=PUCTSelection(settings.c, prior),
-        value=AskAtNewNodes(prior, plain.value),
-    )
+    puct = PUCTSelection(settings.c, prior)
+    return replace(plain, select_action=puct, value=AskAtNewNodes(prior, plain.value))
 
 
 @dataclass(frozen=True)
