@@ -20,11 +20,11 @@ from dataclasses import dataclass, field
 
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
-from stalm.json_object import JsonObject, record_json
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.feedback_prompt import MAX_FAILED_PLANS, FailedPlan, with_feedback
 from stalm.llm.problem_prompt import problem_prompt
 from stalm.llm.prompt import PromptOptions
+from stalm.planners.direct_record import DirectRecord
 from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
 from stalm.proposers.model_backend import use_constraint
@@ -46,7 +46,7 @@ class ReplanningConstants:
 
 
 @dataclass(frozen=True)
-class ReplanningDetails:
+class ReplanningDetails(DirectRecord):
     """Iterative-Replanning's record of a trial: the model asked, its queries (and those that
     showed failed plans), the rounds of queries at a state, the steps forced after a round's
     failures."""
@@ -56,14 +56,6 @@ class ReplanningDetails:
     queries_with_feedback: int
     rounds: int
     forced_steps: int
-
-    @property
-    def proposer(self) -> None:
-        """The method asks its model directly, through no task-plan proposer."""
-        return None
-
-    def to_json(self) -> JsonObject:
-        return record_json(self)
 
 
 def failed_plan(plan: ConcretePlan) -> FailedPlan:
@@ -104,12 +96,9 @@ def IterativeReplanningPlanner(
     run_settings = settings or RunSettings()
     options = run_settings.prompt
     method = Replanning(backend, use_constraint(run_settings, backend), options)
+    occlusion = options.occlusion_predicates
     return OnlinePlanner(
-        "iterative-replanning",
-        run_settings,
-        method,
-        progress,
-        occlusion=options.occlusion_predicates,
+        "iterative-replanning", run_settings, method, progress, occlusion=occlusion
     )
 
 
@@ -158,12 +147,9 @@ class ReplanningRounds:
             self.queries += 1
             self.feedback_queries += bool(recent)
             trial.replans = self.feedback_queries
+            reason = proposal.unparseable[0] if proposal.unparseable else "no reply"
             task_plan = (
-                TaskPlan(proposal.plans[0])
-                if proposal.plans
-                else TaskPlan.unreadable(
-                    proposal.unparseable[0] if proposal.unparseable else "no reply"
-                )
+                TaskPlan(proposal.plans[0]) if proposal.plans else TaskPlan.unreadable(reason)
             )
             with trial.phase("concretize"):
                 concrete = concretize(

@@ -22,18 +22,19 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable
 from contextlib import nullcontext
-from dataclasses import dataclass, replace
+from dataclasses import KW_ONLY, dataclass, field, replace
 
 import numpy as np
 
 from stalm.domain.actions import DiscreteAction
 from stalm.json_object import JsonObject, record_json
 from stalm.planners.registry_rows import planner_rows
+from stalm.planners.tree_step import tree_search
 from stalm.predicates.literals import GroundLiteral
 from stalm.predicates.memo import Timing
 from stalm.progress import Progress
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
-from stalm.search import LeafValue, SearchPolicies, SearchSettings, warm_started_uct
+from stalm.search import LeafValue, SearchPolicies, SearchSettings
 from stalm.search.policies import ValueFunction
 from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
 from stalm.search.search_mdp import SearchMDP
@@ -43,9 +44,6 @@ from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import state_request_seed
 from stalm.world.problem import Problem
 from stalm.world.state import State
-
-LiteralsOf = Callable[[State], Iterable[GroundLiteral]]
-QueryHook = Callable[[Proposal], None]
 
 UNIFORM_WEIGHT = 0.5
 """Weight of the uniform distribution mixed into the prior's votes (the authors' 0.5), a
@@ -89,6 +87,7 @@ class LlmMctsDetails:
         return record_json(self, omitted_when_none={"reused_root_visits"})
 
 
+@dataclass(eq=False)
 class LLMPrior:
     """A :class:`~stalm.search.puct.PriorSource` that asks a task-plan proposer once per node.
 
@@ -105,36 +104,18 @@ class LLMPrior:
     quickly; a query under way is never cut off: a trial overruns by at most one query.
     """
 
-    def __init__(
-        self,
-        problem: Problem,
-        proposer: TaskPlanProposer,
-        literals_of: LiteralsOf,
-        *,
-        trial_seed: int,
-        samples: int,
-        uniform_weight: float = UNIFORM_WEIGHT,
-        deadline: Callable[[], float] | None = None,
-        progress: Progress | None = None,
-        on_query: QueryHook | None = None,
-        timing: Timing | None = None,
-    ) -> None:
-        self.problem = problem
-        self.proposer = proposer
-        self.literals_of = literals_of
-        self.trial_seed = trial_seed
-        self.samples = samples
-        self.uniform_weight = uniform_weight
-        self.deadline = deadline
-        self.progress = progress
-        self.on_query = on_query
-        self.timing = timing
-        self._votes: dict[State, tuple[DiscreteAction, ...]] = {}
-        self._stats = PriorStats()
-
-    @property
-    def stats(self) -> PriorStats:
-        return self._stats
+    problem: Problem
+    proposer: TaskPlanProposer
+    literals_of: Callable[[State], Iterable[GroundLiteral]]
+    _: KW_ONLY
+    trial_seed: int
+    samples: int
+    deadline: Callable[[], float] | None = None
+    progress: Progress | None = None
+    on_query: Callable[[Proposal], None] | None = None
+    timing: Timing | None = None
+    stats: PriorStats = field(default_factory=PriorStats, init=False)
+    _votes: dict[State, tuple[DiscreteAction, ...]] = field(default_factory=dict, init=False)
 
     def new_tree(self) -> None:
         """Forget every prior: the next search builds a new tree, whose nodes ask anew."""
@@ -153,7 +134,7 @@ class LLMPrior:
         votes = self._votes_for(state, actions)
         if votes is None:
             return uniform_prior(actions)
-        return vote_prior(votes, actions, self.samples, self.uniform_weight)
+        return vote_prior(votes, actions, self.samples, UNIFORM_WEIGHT)
 
     def _votes_for(
         self, state: State, actions: tuple[DiscreteAction, ...]
@@ -161,9 +142,10 @@ class LLMPrior:
         """The state's votes, asked for now if needed; None once the deadline has passed."""
         votes = self._votes.get(state)
         if votes is None:
-            if self._past_deadline():
-                self._stats = replace(
-                    self._stats, deadline_fallbacks=self._stats.deadline_fallbacks + 1
+            deadline = self._deadline_now()
+            if deadline is not None and time.monotonic() >= deadline:
+                self.stats = replace(
+                    self.stats, deadline_fallbacks=self.stats.deadline_fallbacks + 1
                 )
                 return None
             votes = self._ask(state, actions)
@@ -173,14 +155,10 @@ class LLMPrior:
     def _deadline_now(self) -> float | None:
         return None if self.deadline is None else self.deadline()
 
-    def _past_deadline(self) -> bool:
-        deadline = self._deadline_now()
-        return deadline is not None and time.monotonic() >= deadline
-
     def _ask(self, state: State, actions: tuple[DiscreteAction, ...]) -> tuple[DiscreteAction, ...]:
         """Query the proposer for ``state``; the legal first actions of its plans."""
         if self.progress is not None:
-            self.progress(f"llm-mcts: prior for new node #{self._stats.states + 1}")
+            self.progress(f"llm-mcts: prior for new node #{self.stats.states + 1}")
         tick = time.monotonic()
         literals = frozenset(self.literals_of(state))
         predicate_seconds = time.monotonic() - tick
@@ -199,8 +177,8 @@ class LLMPrior:
         legal = set(actions)
         votes = tuple(plan[0] for plan in proposal.plans if plan and plan[0] in legal)
         replies = len(proposal.plans) + len(proposal.unparseable) + len(proposal.no_plan)
-        stats = self._stats
-        self._stats = replace(
+        stats = self.stats
+        self.stats = replace(
             stats,
             states=stats.states + 1,
             llm_calls=stats.llm_calls + proposal.calls,
@@ -243,11 +221,8 @@ def llm_mcts_policies(settings: SearchSettings, prior: LLMPrior) -> SearchPolici
     """STaLM's search policies with PUCT over ``prior`` at discrete nodes and the prior asked
     for at every node the search creates (:class:`AskAtNewNodes`)."""
     plain = SearchPolicies.from_settings(settings)
-    return replace(
-        plain,
-        select_action=PUCTSelection(settings.c, prior),
-        value=AskAtNewNodes(prior, plain.value),
-    )
+    puct = PUCTSelection(settings.c, prior)
+    return replace(plain, select_action=puct, value=AskAtNewNodes(prior, plain.value))
 
 
 @dataclass(frozen=True)
@@ -274,13 +249,9 @@ def LlmMctsPlanner(
     (``search.batch``). The trial computes the occlusion literals only for a prompt that
     shows them."""
     run_settings = planner_rows()["llm-mcts"].settings_for(settings or RunSettings())
-    return OnlinePlanner(
-        "llm-mcts",
-        run_settings,
-        LlmMcts(proposer, run_settings, progress),
-        progress,
-        occlusion=run_settings.prompt.occlusion_predicates,
-    )
+    method = LlmMcts(proposer, run_settings, progress)
+    occlusion = run_settings.prompt.occlusion_predicates
+    return OnlinePlanner("llm-mcts", run_settings, method, progress, occlusion=occlusion)
 
 
 class LlmMctsSteps:
@@ -294,7 +265,7 @@ class LlmMctsSteps:
         self.prior = LLMPrior(
             trial.episode.problem,
             planner.proposer,
-            self._literals,
+            lambda state: trial.memo.of(state).literals,
             trial_seed=trial.seed,
             samples=settings.search.batch,
             deadline=lambda: trial.episode.deadline,
@@ -304,11 +275,6 @@ class LlmMctsSteps:
         )
         self.policies = llm_mcts_policies(settings.search.search_settings(), self.prior)
         self.calls_per_step: list[int] = []
-
-    def _literals(self, state: State) -> frozenset[GroundLiteral]:
-        """A node's literals, from the trial's predicate memo; the query that follows is
-        timed by the episode (its original seconds), not as tree search."""
-        return self.trial.memo.of(state).literals
 
     def decide(self) -> Decision:
         trial, prior = self.trial, self.prior
@@ -321,20 +287,8 @@ class LlmMctsSteps:
         else:
             prior.keep_only(tree)
         calls_before = prior.stats.llm_calls
-        with trial.phase("tree"):
-            result = warm_started_uct(
-                trial.domain,
-                trial.episode.state,
-                (),
-                trial.rng,
-                settings=search,
-                depth0=trial.done,
-                deadline=trial.episode.deadline,
-                policies=self.policies,
-                tree=tree,
-            )
+        result = tree_search(trial, (), search, self.policies, tree)
         self.calls_per_step.append(prior.stats.llm_calls - calls_before)
-        trial.simulations += result.counters.simulations
         if result.goal_plan:
             return result.goal_plan
         if result.best_action is not None:

@@ -3,8 +3,8 @@
 ``stalm solve --planner NAME``, ``stalm rerun`` and ``stalm experiment`` all go through
 :func:`build_planner`, so a planner is configured the same way wherever it runs, from a
 :class:`~stalm.settings.tree.RunSettings`. The registry sits above the planner modules; it
-pairs each row of :mod:`stalm.planners.registry_rows` (name, description, N_budget) with one
-small builder that imports the planner's module when it is called, so listing the planners
+pairs each row of :mod:`stalm.planners.registry_rows` (name, description, N_budget) with a
+branch of :func:`_build`, which imports the planner's module when it runs, so listing the planners
 (``stalm planners``, ``--help``) or resolving settings loads none of them. What the planners
 share with it lives below both: the rows, :mod:`stalm.settings.tree` and
 :mod:`stalm.proposers.model_backend`.
@@ -13,7 +13,6 @@ share with it lives below both: the rows, :mod:`stalm.settings.tree` and
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
 from dataclasses import replace
 
 from stalm.errors import StalmError
@@ -24,92 +23,49 @@ from stalm.settings.tree import RunSettings
 from stalm.trial.result import Planner
 from stalm.world.problem import Problem
 
-__all__ = [
-    "PROPOSING",
-    "PlannerRow",
-    "build_planner",
-    "planner_entry",
-    "planners",
-    "resolve",
-]
-
-Builder = Callable[[RunSettings, Progress | None], Planner]
-
 PROPOSING = ("stalm", "stalm-no-uct")
 """The planners whose task plans come from ``proposer.kind`` (the other model-based
 baselines ask the model with prompts of their own)."""
 
 
-# Each builder imports its planner's module only when a planner is built (see the module
-# docstring); the modules import nothing back from here.
-def _stalm(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.stalm import StalmPlanner, proposer_for
+def _build(name: str, settings: RunSettings, progress: Progress | None) -> Planner:
+    """Planner ``name`` (a row's) from ``settings``, importing its module only now (see the
+    module docstring); the modules import nothing back from here."""
+    if name in PROPOSING:
+        from stalm.planners.stalm import StalmPlanner, best_prefix_first_action, proposer_for
 
-    return StalmPlanner(proposer_for(settings), settings, progress)
+        if name == "stalm":
+            return StalmPlanner(proposer_for(settings), settings, progress)
+        # the ablation is its own row (not a flag of STaLM's settings), so a planner's name is
+        # what it is: STaLM's step whose no-goal-plan part is the best plan's first action
+        return StalmPlanner(
+            proposer_for(settings),
+            settings,
+            progress,
+            name=name,
+            no_goal_plan=best_prefix_first_action,
+        )
+    if name in ("uct", "uct-hcount"):
+        from stalm.planners.uct import uct_planner
 
+        return uct_planner(settings, progress, hcount=name == "uct-hcount")
+    if name == "ep-saycan":
+        from stalm.planners.saycan import EpSayCanPlanner
 
-def _stalm_no_uct(settings: RunSettings, progress: Progress | None) -> Planner:
-    """STaLM's step whose no-goal-plan part is the best plan's first action: the ablation is
-    its own row (not a flag of STaLM's settings), so a planner's name is what it is."""
-    from stalm.planners.stalm import StalmPlanner, best_prefix_first_action, proposer_for
+        return EpSayCanPlanner(llm_backend(settings), settings, progress)
+    if name == "iterative-replanning":
+        from stalm.planners.iterative_replanning import IterativeReplanningPlanner
 
-    return StalmPlanner(
-        proposer_for(settings),
-        settings,
-        progress,
-        name="stalm-no-uct",
-        no_goal_plan=best_prefix_first_action,
-    )
+        return IterativeReplanningPlanner(llm_backend(settings), settings, progress)
+    if name == "llm-mcts":
+        from stalm.planners.llm_mcts import LlmMctsPlanner
+        from stalm.proposers.language_model import model_proposer
 
-
-def _uct(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.uct import uct_planner
-
-    return uct_planner("uct", settings, progress, hcount=False)
-
-
-def _uct_hcount(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.uct import uct_planner
-
-    return uct_planner("uct-hcount", settings, progress, hcount=True)
-
-
-def _ep_saycan(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.saycan import EpSayCanPlanner
-
-    return EpSayCanPlanner(llm_backend(settings), settings, progress)
-
-
-def _iterative_replanning(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.iterative_replanning import IterativeReplanningPlanner
-
-    return IterativeReplanningPlanner(llm_backend(settings), settings, progress)
-
-
-def _llm_mcts(settings: RunSettings, progress: Progress | None) -> Planner:
-    from stalm.planners.llm_mcts import LlmMctsPlanner
-    from stalm.proposers.language_model import model_proposer
-
-    return LlmMctsPlanner(model_proposer(settings), settings, progress)
-
-
-def _pddlstream_adaptive(settings: RunSettings, progress: Progress | None) -> Planner:
+        return LlmMctsPlanner(model_proposer(settings), settings, progress)
+    assert name == "pddlstream-adaptive", name  # every row of registry_rows.ROWS has its planner
     from stalm.planners.pddlstream import PDDLStreamPlanner
 
     return PDDLStreamPlanner(settings, progress)
-
-
-_BUILDERS: dict[str, Builder] = {
-    "stalm": _stalm,
-    "stalm-no-uct": _stalm_no_uct,
-    "uct": _uct,
-    "uct-hcount": _uct_hcount,
-    "ep-saycan": _ep_saycan,
-    "iterative-replanning": _iterative_replanning,
-    "llm-mcts": _llm_mcts,
-    "pddlstream-adaptive": _pddlstream_adaptive,
-}
-"""Each row's builder (:data:`~stalm.planners.registry_rows.ROWS`), by planner name."""
 
 
 def planners() -> dict[str, PlannerRow]:
@@ -158,10 +114,8 @@ def resolve(name: str, settings: RunSettings, problem: Problem | None = None) ->
 
 
 def build_planner(
-    name: str,
-    config: RunSettings | None = None,
-    progress: Progress | None = None,
+    name: str, config: RunSettings | None = None, progress: Progress | None = None
 ) -> Planner:
     """The planner ``name`` configured by ``config`` (defaults: the paper's settings)."""
     entry = planner_entry(name)
-    return _BUILDERS[name](entry.settings_for(config or RunSettings()), progress)
+    return _build(name, entry.settings_for(config or RunSettings()), progress)

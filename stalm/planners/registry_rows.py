@@ -47,10 +47,7 @@ ROWS: tuple[PlannerRow, ...] = (
         sims=30,
     ),
     PlannerRow(
-        "uct",
-        "Hybrid UCT with random rollouts and no guidance (N_budget 35)",
-        False,
-        sims=35,
+        "uct", "Hybrid UCT with random rollouts and no guidance (N_budget 35)", False, sims=35
     ),
     PlannerRow(
         "uct-hcount",

@@ -34,9 +34,10 @@ from stalm.domain.mdp import Domain
 from stalm.domain.outcome import Infeasibility
 from stalm.domain.params import Action
 from stalm.domain.vocabulary import Vocabulary
-from stalm.json_object import JsonObject, record_json
+from stalm.json_object import JsonObject
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.saycan_prompt import saycan_prompt
+from stalm.planners.direct_record import DirectRecord
 from stalm.predicates.literals import GroundLiteral
 from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
@@ -175,7 +176,7 @@ class DecisionTally:
 
 
 @dataclass(frozen=True)
-class SayCanDetails:
+class SayCanDetails(DirectRecord):
     """EP-SayCan's record of a trial: the model asked and what its decisions did."""
 
     backend: str
@@ -183,14 +184,6 @@ class SayCanDetails:
     zero_score_queries: int
     kappa_failures: int
     decisions: tuple[SayCanDecision, ...]
-
-    @property
-    def proposer(self) -> None:
-        """SayCan asks its model directly, through no task-plan proposer."""
-        return None
-
-    def to_json(self) -> JsonObject:
-        return record_json(self)
 
 
 @dataclass(frozen=True)
@@ -233,6 +226,7 @@ class SayCan:
     ) -> Action | None:
         """One SayCan decision in the current state: a feasible sampled action, or None."""
         problem, state, say = episode.problem, episode.state, episode.observer.message
+        batch, weight = self.settings.search.batch, self.constants.uniform_weight
         affordable = affordance(domain, state, literals)
         candidates = domain.legal_actions(state)
         history = [action.discrete for action in episode.executed]
@@ -240,12 +234,12 @@ class SayCan:
         for attempt in range(self.constants.max_queries_per_step):
             if episode.out_of_time():
                 return None
-            say(f"step {step}: asking for {self.settings.search.batch} replies")
+            say(f"step {step}: asking for {batch} replies")
             proposal = ask_for_task_plans(
                 self.backend,
                 Vocabulary.from_problem(problem),
                 saycan_prompt(problem, history),
-                self.settings.search.batch,
+                batch,
                 query_seed(seed, step, attempt),
                 constrained=self.constrained,
                 temperature=self.constants.temperature,
@@ -255,13 +249,8 @@ class SayCan:
             episode.failures.update("unparseable" for _ in proposal.unparseable)
             tally.queries += 1
             firsts = tuple(plan[0] for plan in proposal.plans)
-            scores = saycan_scores(
-                firsts,
-                len(proposal.replies) or self.settings.search.batch,
-                candidates,
-                affordable,
-                self.constants.uniform_weight,
-            )
+            n_replies = len(proposal.replies) or batch
+            scores = saycan_scores(firsts, n_replies, candidates, affordable, weight)
             while not episode.out_of_time():
                 best = saycan_choice(scores, rng, excluded)
                 if best is None:
@@ -306,15 +295,9 @@ class SayCanSteps:
     def decide(self) -> Decision:
         trial = self.trial
         trial.say(f"step {self.step}: predicates")
-        predicates = trial.episode.predicates()
+        literals = trial.episode.predicates().literals
         chosen = self.planner.decide(
-            trial.domain,
-            trial.episode,
-            predicates.literals,
-            trial.seed,
-            self.step,
-            trial.rng,
-            self.tally,
+            trial.domain, trial.episode, literals, trial.seed, self.step, trial.rng, self.tally
         )
         trial.replans = self.tally.queries
         if chosen is None:

@@ -26,8 +26,7 @@ from stalm.domain.actions import DiscreteAction
 from stalm.domain.params import Action
 from stalm.errors import StalmError
 from stalm.planners.registry_rows import planner_rows
-from stalm.planners.tree_details import TreeDetails
-from stalm.planners.tree_step import begin_step, search, tree_details, tree_planner
+from stalm.planners.tree_step import TreeDetails, begin_step, search, tree_details, tree_planner
 from stalm.predicates.literals import GroundLiteral
 from stalm.progress import Progress
 from stalm.proposers.fast_downward import SymbolicProposer
@@ -41,8 +40,6 @@ from stalm.settings.tree import ProposerKind, RunSettings
 from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import stalm_proposal_seed
 from stalm.trial.step_log import RoundLessons, StepRecord, proposal_record
-
-__all__ = ["StalmPlanner", "StalmStep", "StalmSteps"]
 
 log = logging.getLogger(__name__)
 """Each proposal round's plans and what Concretize made of them, at INFO."""
@@ -303,10 +300,10 @@ def StalmPlanner(
     The registry builds STaLM w/o UCT with its ``name`` and :func:`best_prefix_first_action`.
     """
     check_proposer(proposer)
+    run_settings = settings or RunSettings()
+    section = replace(run_settings.proposer, kind=proposer_kind(proposer))
     # N_budget: STaLM's row (STaLM w/o UCT's says the same)
-    run_settings = planner_rows()["stalm"].settings_for(
-        with_proposer_kind(settings or RunSettings(), proposer)
-    )
+    run_settings = planner_rows()["stalm"].settings_for(replace(run_settings, proposer=section))
     steps = StalmSteps(proposer, run_settings, no_goal_plan)
     return tree_planner(name, run_settings, steps, progress)
 
@@ -317,11 +314,6 @@ def proposer_kind(proposer: TaskPlanProposer) -> ProposerKind:
     if isinstance(proposer, SymbolicProposer):
         return "symbolic"
     return "noisy" if isinstance(proposer, NoisyProposer) else "llm"
-
-
-def with_proposer_kind(settings: RunSettings, proposer: TaskPlanProposer) -> RunSettings:
-    """``settings`` with ``proposer``'s kind as ``proposer.kind``."""
-    return replace(settings, proposer=replace(settings.proposer, kind=proposer_kind(proposer)))
 
 
 def proposer_for(settings: RunSettings) -> TaskPlanProposer:

@@ -9,28 +9,82 @@ filled by the planner's registry row), with its two additions to the paper: tree
 (:meth:`stalm.trial.online.Trial.execute`) and the 'progress' execution rule, which searches
 on from the same root rather than spend an irreversible step of the horizon on a coin toss
 (:func:`_best_promising_action`; the authors' 'best_q' does).
+
+What a tree planner records of its run is :class:`TreeDetails`: which proposer it asked and how
+often, the settings that decide how it searched and executed, the root visits a kept tree
+brought into each step, and the step log; the noisy proposer adds what it injected, Hcount how
+its leaves' predicates were made.
 """
 
 from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import cast
 
 from stalm.domain.mdp import Domain
 from stalm.domain.params import Action
-from stalm.planners.tree_details import HcountLeaves, TreeDetails, TreeSettingsRecord
+from stalm.json_object import JsonObject, record_json
 from stalm.progress import Progress
-from stalm.search import ConcretePlan, SearchPolicies, SearchTree, warm_started_uct
+from stalm.proposers.noisy import NoiseRecord
+from stalm.search import (
+    ConcretePlan,
+    SearchPolicies,
+    SearchResult,
+    SearchSettings,
+    SearchTree,
+    warm_started_uct,
+)
 from stalm.search.hcount import HcountLeafValue
-from stalm.settings.tree import RunSettings
+from stalm.settings.tree import ExecutionRule, RunSettings
 from stalm.trial.online import Decision, OnlinePlanner, StartSteps, Trial
 from stalm.trial.step_log import DECISIONS, StepRecord, tree_record, warm_edges
 from stalm.world.state import State
 
 log = logging.getLogger(__name__)
 """Each real step's search and the rule that chose what it executes, at INFO."""
+
+
+@dataclass(frozen=True)
+class TreeSettingsRecord:
+    """The settings a tree planner's record keeps (``details.settings``): each is explained
+    where the run's settings tree declares it."""
+
+    reuse_tree: bool
+    feedback: bool
+    execution: ExecutionRule
+    kappa_tries: int
+    backtracks: int
+    goal_atom_lost: float
+
+
+@dataclass(frozen=True)
+class HcountLeaves:
+    """How Hcount's leaves got their predicates: computed from scratch, or brought forward
+    from the parent's with the cached update."""
+
+    predicates_from_scratch: int
+    predicates_brought_forward: int
+
+
+@dataclass(frozen=True)
+class TreeDetails:
+    """A tree planner's record (``proposer`` None and ``proposals`` 0 for UCT)."""
+
+    proposer: str | None
+    settings: TreeSettingsRecord
+    proposals: int
+    feedback_steps_learned: int
+    reused_root_visits: tuple[int, ...]
+    """Per real step whose tree was kept: the visits its root already had."""
+    step_log: tuple[StepRecord, ...]
+    noise: NoiseRecord | None = None
+    hcount_leaves: HcountLeaves | None = None
+
+    def to_json(self) -> JsonObject:
+        return record_json(self, omitted_when_none={"noise", "hcount_leaves"})
 
 
 def tree_planner(
@@ -47,17 +101,8 @@ def tree_planner(
     (which plans with occlusions whatever the prompt options say), for the noisy one (which
     needs them to drop the step that clears an occluder) and for a leaf value that reads
     them (``leaf_occlusion``: Hcount)."""
-    return OnlinePlanner(
-        name,
-        settings,
-        start,
-        progress,
-        occlusion=(
-            leaf_occlusion
-            or settings.proposer.kind != "llm"
-            or settings.prompt.occlusion_predicates
-        ),
-    )
+    occlusion = settings.proposer.kind != "llm" or settings.prompt.occlusion_predicates
+    return OnlinePlanner(name, settings, start, progress, occlusion=leaf_occlusion or occlusion)
 
 
 @dataclass
@@ -146,19 +191,7 @@ def search(
     while True:
         searches += 1
         trial.say(f"step {done}: warm-started UCT, {within.budget} simulations")
-        with trial.phase("tree"):
-            result = warm_started_uct(
-                domain,
-                state,
-                warm,
-                trial.rng,
-                settings=within,
-                depth0=done,
-                deadline=trial.episode.deadline,
-                policies=policies,
-                tree=tree,
-            )
-        trial.simulations += result.counters.simulations
+        result = tree_search(trial, warm, within, policies, tree)
         if result.goal_plan:
             decided("tree_goal")
             return result.goal_plan
@@ -181,6 +214,31 @@ def search(
             decided("best_q_fallback")
             return (result.best_action,)
         warm = []
+
+
+def tree_search(
+    trial: Trial,
+    plans: Sequence[ConcretePlan],
+    settings: SearchSettings,
+    policies: SearchPolicies,
+    tree: SearchTree | None,
+) -> SearchResult:
+    """WarmStartedUCT from the current state (every online tree method's search, LLM-MCTS's
+    too), timed as the trial's 'tree' phase, its simulations counted."""
+    with trial.phase("tree"):
+        result = warm_started_uct(
+            trial.domain,
+            trial.episode.state,
+            plans,
+            trial.rng,
+            settings=settings,
+            depth0=trial.done,
+            deadline=trial.episode.deadline,
+            policies=policies,
+            tree=tree,
+        )
+    trial.simulations += result.counters.simulations
+    return result
 
 
 def _best_promising_action(tree: SearchTree, domain: Domain) -> Action | None:

@@ -36,15 +36,13 @@ class UctSteps:
         if not self.hcount:
             return SearchStep(trial, self.settings, policies)
         leaves = HcountLeafValue(trial.episode.problem, trial.memo)
-        hcount = replace(policies, value=leaves)
-        return SearchStep(trial, self.settings, hcount, leaves)
+        return SearchStep(trial, self.settings, replace(policies, value=leaves), leaves)
 
 
-def uct_planner(
-    name: str, settings: RunSettings, progress: Progress | None, *, hcount: bool
-) -> OnlinePlanner:
+def uct_planner(settings: RunSettings, progress: Progress | None, *, hcount: bool) -> OnlinePlanner:
     """UCT run online (the 'uct' row; with ``hcount``, the 'uct-hcount' row) configured by a
     run's settings tree; of it, the proposer's part (N_batch, feedback, κ tries, backtracks)
     does not apply."""
-    settings = planner_rows()["uct-hcount" if hcount else "uct"].settings_for(settings)
+    name = "uct-hcount" if hcount else "uct"
+    settings = planner_rows()[name].settings_for(settings)
     return tree_planner(name, settings, UctSteps(settings, hcount), progress, leaf_occlusion=hcount)

@@ -127,8 +127,8 @@ def test_the_other_planners_built_by_hand_read_what_the_registry_builds() -> Non
     tree = _tree(("llm.backend", "http://127.0.0.1:9/v1#m"))
     backend = ScriptedReplyBackendDouble(queue=[])
     by_hand = {
-        "uct": uct_planner("uct", RunSettings(), None, hcount=False),
-        "uct-hcount": uct_planner("uct-hcount", RunSettings(), None, hcount=True),
+        "uct": uct_planner(RunSettings(), None, hcount=False),
+        "uct-hcount": uct_planner(RunSettings(), None, hcount=True),
         "llm-mcts": LlmMctsPlanner(LLMProposer(backend)),
         "ep-saycan": EpSayCanPlanner(backend),
         "iterative-replanning": IterativeReplanningPlanner(backend),

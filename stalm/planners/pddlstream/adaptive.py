@@ -33,12 +33,12 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from stalm.errors import StalmError
-from stalm.json_object import JsonObject
+from stalm.json_object import JsonObject, record_json
 from stalm.planners.pddlstream.downward import SEARCH, fast_downward
 from stalm.planners.pddlstream.instances import Optimistic, StreamKey, Streams
 from stalm.planners.pddlstream.knowledge import Knowledge
@@ -109,7 +109,7 @@ class StreamPlanEvaluation:
     stream_plan_s: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class IterationRecord:
     """What one adaptive iteration did, for the result: the objects of its optimistic problem,
     Fast Downward's seconds and how the iteration ended (``result``); a plan's length, the
@@ -122,34 +122,26 @@ class IterationRecord:
     pddl_objects: int
     fd_translate_s: float
     fd_search_s: float
-    result: str
     plan_length: int | None = None
+    result: str
     reenabled: int | None = None
     evaluation: StreamPlanEvaluation | None = None
     execution_failure: str | None = None
     learned: tuple[str, ...] | None = None
 
     def to_json(self) -> JsonObject:
-        data: JsonObject = {
-            "complexity_limit": self.complexity_limit,
-            "real_objects": self.real_objects,
-            "optimistic_objects": self.optimistic_objects,
-            "pddl_objects": self.pddl_objects,
-            "fd_translate_s": self.fd_translate_s,
-            "fd_search_s": self.fd_search_s,
+        """The fields, those not known left out, and the evaluation's in its place."""
+        data = record_json(self, omitted_when_none=_OMITTED_WHEN_NONE)
+        return {
+            key: value
+            for name, field_value in data.items()
+            for key, value in (
+                field_value.items() if name == "evaluation" else [(name, field_value)]
+            )
         }
-        if self.plan_length is not None:
-            data["plan_length"] = self.plan_length
-        data["result"] = self.result
-        if self.reenabled is not None:
-            data["reenabled"] = self.reenabled
-        if self.evaluation is not None:
-            data.update(asdict(self.evaluation))
-        if self.execution_failure is not None:
-            data["execution_failure"] = self.execution_failure
-        if self.learned is not None:
-            data["learned"] = list(self.learned)
-        return data
+
+
+_OMITTED_WHEN_NONE = ("plan_length", "reenabled", "evaluation", "execution_failure", "learned")
 
 
 @dataclass(frozen=True)
@@ -192,10 +184,7 @@ class Adaptive:
         text = optimistic_problem(knowledge, optimistic, self.names, fluents, self.goal)
         own = sum(len(v) for v in self.names.values())
         search = fast_downward(
-            text,
-            self.settings.search,
-            deadline - time.monotonic(),
-            self.settings.memory_limit_mb,
+            text, self.settings.search, deadline - time.monotonic(), self.settings.memory_limit_mb
         )
         self.fd_seconds += search.translate_s + search.search_s
         self.translate_seconds += search.translate_s

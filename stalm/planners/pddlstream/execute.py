@@ -34,17 +34,12 @@ class StepFailure:
     retired: bool
 
 
-def motion_of(step: tuple[str, ...]) -> str:
-    """The motion object of a plan step (its last argument)."""
-    return step[-1]
-
-
 def build_action(
     domain: Domain, knowledge: Knowledge, state: State, step: tuple[str, ...]
 ) -> Action | Infeasibility:
     """The executable action of a plan step in ``state``, or why it is not executable."""
     operator, *args = step
-    motion = knowledge.motions[motion_of(step)]
+    motion = knowledge.motions[step[-1]]  # a step's last argument is its motion
     path = domain.samplers.base_path(state, motion.stand)
     if isinstance(path, Infeasibility):
         return path
@@ -77,7 +72,7 @@ def learn_from(
     knowledge: Knowledge, state: State, step: tuple[str, ...], failure: Infeasibility
 ) -> StepFailure:
     """Record what blocked ``step`` in ``state`` so the next search avoids it."""
-    motion = motion_of(step)
+    motion = step[-1]
     learned: list[Fact] = []
     doors = {d.name for d in knowledge.geometry.spec.doors}
     for blocker in failure.blockers:

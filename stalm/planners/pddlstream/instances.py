@@ -20,13 +20,7 @@ from stalm.domain.actions import RELATIVE_DIRECTIONS
 from stalm.errors import StalmError
 from stalm.planners.pddlstream.knowledge import Knowledge
 from stalm.planners.pddlstream.pddl_text import Fact
-from stalm.planners.pddlstream.values import (
-    GRASP,
-    MOTION,
-    POSE,
-    is_optimistic,
-    optimistic_name,
-)
+from stalm.planners.pddlstream.values import GRASP, MOTION, POSE, is_optimistic, optimistic_name
 
 OUT = "?out"
 """Placeholder for an instance's output object in the facts it certifies."""
@@ -97,6 +91,9 @@ class Streams:
         def complexity(name: str) -> int:
             return out[name].complexity if name in out else 0
 
+        def optimistic(kind: str, obj: str) -> list[str]:
+            return [n for n, o in out.items() if o.kind == kind and o.key.inputs[0] == obj]
+
         def offer(stream: str, inputs: tuple[str, ...], kind: str, facts: list[Fact]) -> None:
             key = StreamKey(stream, inputs)
             calls = 0
@@ -136,13 +133,8 @@ class Streams:
                     )
         for stream, predicate in (("plan-pick", "PickKin"), ("plan-place", "PlaceKin")):
             for obj in self.movables:
-                poses = k.poses_of(obj) + [
-                    n for n, o in out.items() if o.kind == POSE and o.key.inputs[0] == obj
-                ]
-                grasps = k.grasps_of(obj) + [
-                    n for n, o in out.items() if o.kind == GRASP and o.key.inputs[0] == obj
-                ]
-                for pose in poses:
+                grasps = k.grasps_of(obj) + optimistic(GRASP, obj)
+                for pose in k.poses_of(obj) + optimistic(POSE, obj):
                     for grasp in grasps:
                         offer(
                             stream, (obj, pose, grasp), MOTION, [(predicate, obj, pose, grasp, OUT)]

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,7 +29,7 @@ from stalm.domain.params import Action
 from stalm.domain.samplers import SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.json_object import JsonObject, record_json
+from stalm.planners.direct_record import DirectRecord
 from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, IterationRecord
 from stalm.planners.pddlstream.execute import build_action, learn_from
 from stalm.planners.pddlstream.instances import Streams
@@ -38,6 +37,7 @@ from stalm.planners.pddlstream.knowledge import Knowledge
 from stalm.planners.pddlstream.pddl_text import Fact, goal_fact
 from stalm.planners.pddlstream.streams import StreamGeometry
 from stalm.planners.pddlstream.values import PoseValue
+from stalm.progress import Progress, observer_of
 from stalm.settings.tree import RunSettings
 from stalm.trial.details import ReplayCheck, RunDetails
 from stalm.trial.replay import replay_plan
@@ -53,11 +53,9 @@ from stalm.world.problem import Problem
 from stalm.world.relations import supporting_region
 from stalm.world.state import State
 
-Progress = Callable[[str], None]
-
 
 @dataclass(frozen=True)
-class PddlStreamDetails:
+class PddlStreamDetails(DirectRecord):
     """PDDLStream's record of a trial: each iteration (:class:`IterationRecord`), the real
     objects and complexity limit it ended with, what the streams and tests did, Fast
     Downward's seconds, and the plan steps whose execution failed. Seconds are to the
@@ -77,14 +75,6 @@ class PddlStreamDetails:
     collision_tests: int
     execution_failures: tuple[str, ...]
 
-    @property
-    def proposer(self) -> None:
-        """The method proposes its own plans (Fast Downward over optimistic objects)."""
-        return None
-
-    def to_json(self) -> JsonObject:
-        return record_json(self)
-
 
 class PDDLStreamPlanner:
     """PDDLStream's adaptive algorithm with Fast Downward, over ψ's samplers as streams.
@@ -94,6 +84,8 @@ class PDDLStreamPlanner:
     no language model and no search tree. ``adaptive`` holds PDDLStream's own constants
     (:class:`AdaptiveSettings`), which the tree does not hold."""
 
+    name = "pddlstream-adaptive"
+
     def __init__(
         self,
         settings: RunSettings | None = None,
@@ -102,15 +94,7 @@ class PDDLStreamPlanner:
     ) -> None:
         self.samplers: SamplerSettings = (settings or RunSettings()).samplers
         self.adaptive = adaptive or AdaptiveSettings()
-        self.progress = progress
-
-    @property
-    def name(self) -> str:
-        return "pddlstream-adaptive"
-
-    def _say(self, message: str) -> None:
-        if self.progress is not None:
-            self.progress(message)
+        self.say = observer_of(progress).message
 
     def solve(self, problem: Problem, seed: int, time_budget_s: float | None = None) -> PlanResult:
         seed = check_seed(seed)
@@ -151,7 +135,7 @@ class PDDLStreamPlanner:
                 break
             if time.monotonic() >= deadline:
                 break
-            self._say(
+            self.say(
                 f"iteration {len(iterations)}: {knowledge.object_count} real objects, "
                 f"complexity limit {adaptive.limit}"
             )
@@ -180,7 +164,7 @@ class PDDLStreamPlanner:
                     held_grasp = step[3]
                 elif step[0] == "place":
                     held_grasp = None
-                self._say(f"executed {built.discrete}")
+                self.say(f"executed {built.discrete}")
             execution_s += time.monotonic() - tick
 
         replay_reason = None

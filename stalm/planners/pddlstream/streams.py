@@ -42,20 +42,13 @@ from stalm.motion.grasps import (
     sample_grasp_angles,
     yaw_limited,
 )
-from stalm.motion.manipulation import (
-    PARKED,
-    ArmMotion,
-    Manipulator,
-    placing_hand,
-    route_segment,
-)
+from stalm.motion.manipulation import PARKED, ArmMotion, Manipulator, placing_hand, route_segment
 from stalm.motion.sweeps import Segment, SweptMotion, sweep, sweep_near
-from stalm.planners.pddlstream.values import GraspValue, MotionValue, PoseValue
+from stalm.planners.pddlstream.values import SE2, GraspValue, MotionValue, PoseValue
 from stalm.world.grip_widths import too_wide
 from stalm.world.relations import direction_between, supporting_region
 from stalm.world.state import Grasp, ObjectPose, RobotConf
 
-SE2 = tuple[float, float, float]
 CANONICAL_DISTANCE = 0.7
 """How far ahead of its standing pose an object is imagined when a grasp is sampled (m)."""
 
@@ -104,36 +97,26 @@ class StreamGeometry:
         carry = self.sim.robot.carry_conf
         self.sim.set_robot(RobotConf.make(stand, carry[0], carry[1:]))
 
-    def _motion_from(
-        self, segments: tuple[Segment, ...], own: str = ""
-    ) -> tuple[SweptMotion, frozenset[str]] | None:
-        """Sweep ``segments`` in the cleared world: None if they touch the static scene, else
-        the swept motion and the doors it passes (``own``, the door being opened, excepted)."""
+    def _motion(
+        self,
+        kind: str,
+        subject: str,
+        arm: ArmMotion,
+        segments: tuple[Segment, ...],
+        names: tuple[str | None, str | None] = (None, None),
+        own: str = "",
+    ) -> MotionValue | None:
+        """``arm``'s motion, swept along ``segments`` in the cleared world: None if they touch
+        the static scene; it crosses the doors they and its route pass (``own``, the door
+        being opened, excepted)."""
         swept = self.hands.sweep(segments)
         if swept is None:
             return None
         motion, bodies = swept
         doors = frozenset(self._door_of_body[b] for b in bodies if b in self._door_of_body)
-        return motion, doors - {own}
-
-    def _value(
-        self,
-        kind: str,
-        subject: str,
-        arm: ArmMotion,
-        swept: tuple[SweptMotion, frozenset[str]],
-        names: tuple[str | None, str | None] = (None, None),
-    ) -> MotionValue:
+        crosses = doors - {own} | self.route(arm.stand).crosses
         return MotionValue(
-            kind,
-            subject,
-            arm.stand,
-            swept[0],
-            arm.waypoints,
-            arm.key_conf,
-            swept[1] | self.route(arm.stand).crosses,
-            pose=names[0],
-            grasp=names[1],
+            kind, subject, arm.stand, motion, arm.waypoints, arm.key_conf, crosses, *names
         )
 
     def yaw_offset(self, obj: str) -> float:
@@ -151,47 +134,36 @@ class StreamGeometry:
     # ------------------------------------------------------------------ samplers
     def sample_grasp(self, obj: str, rng: np.random.Generator) -> GraspValue | None:
         """Pitch and yaw uniform in PICK's ranges, at the grasp point nearest the robot (a
-        box's yaw range cut to where it fits the gripper; None if no grasp fits).
+        box's yaw range cut to where the gripper's opening fits,
+        :func:`~stalm.motion.grasps.grasp_window`; None if no grasp fits).
 
         The object's pose in the gripper frame is computed in a canonical scene (standing
         pose at the origin facing +x, the object 0.7 m ahead with its kept relative yaw):
         every pose of the object relative to its standing pose shares that yaw, so the
         same transform holds at every pose."""
+        spec, opening = self.spec.object(obj), self.sim.robot.gripper.opening
         frame = (CANONICAL_DISTANCE, 0.0, self._yaw_offset[obj])
-        if too_wide(self.spec.object(obj), self.sim.robot.gripper.opening) is not None:
+        if too_wide(spec, opening) is not None:
             return None
-        if yaw_limited(self.spec.object(obj)):
-            return self._sample_box_grasp(obj, frame, rng)
-        pitch, yaw = sample_grasp_angles(rng, self.settings.pitch_range, self.settings.yaw_range)
-        point = min(
-            grasp_points(self.spec.object(obj)),
-            key=lambda q: math.hypot(*se2_to_world(frame, q[0], q[1])),
-        )
-        wx, wy = se2_to_world(frame, point[0], point[1])
-        target = gripper_target((wx, wy, point[2]), 0.0, pitch, yaw)
+        if yaw_limited(spec):
+            pose = ObjectPose.make(frame[0], frame[1], 0.0, frame[2])
+            ranges = self.settings.pitch_range, self.settings.yaw_range
+            window = grasp_window(spec, pose, (0.0, 0.0, 0.0), *ranges, gap=opening)
+            if window is None:
+                return None
+            pitch, yaw = sample_grasp_angles(rng, window.pitch_range, window.yaw_range)
+            local, point = window.local, window.point
+        else:
+            pitch, yaw = sample_grasp_angles(
+                rng, self.settings.pitch_range, self.settings.yaw_range
+            )
+            local = min(
+                grasp_points(spec), key=lambda q: math.hypot(*se2_to_world(frame, q[0], q[1]))
+            )
+            point = (*se2_to_world(frame, local[0], local[1]), local[2])
+        target = gripper_target(point, 0.0, pitch, yaw)
         relative = compose(invert(target), ((frame[0], 0.0, 0.0), yaw_quat(frame[2])))
-        return GraspValue(obj, pitch, yaw, point, Grasp.make(obj, relative[0], relative[1]))
-
-    def _sample_box_grasp(
-        self, obj: str, frame: tuple[float, float, float], rng: np.random.Generator
-    ) -> GraspValue | None:
-        """A box's grasp in the canonical scene: its yaw range cut to where the gripper's
-        opening fits (:func:`~stalm.motion.grasps.grasp_window`); None if nothing fits."""
-        pose = ObjectPose.make(frame[0], frame[1], 0.0, frame[2])
-        window = grasp_window(
-            self.spec.object(obj),
-            pose,
-            (0.0, 0.0, 0.0),
-            self.settings.pitch_range,
-            self.settings.yaw_range,
-            gap=self.sim.robot.gripper.opening,
-        )
-        if window is None:
-            return None
-        pitch, yaw = sample_grasp_angles(rng, window.pitch_range, window.yaw_range)
-        target = gripper_target(window.point, 0.0, pitch, yaw)
-        relative = compose(invert(target), ((frame[0], 0.0, 0.0), yaw_quat(frame[2])))
-        return GraspValue(obj, pitch, yaw, window.local, Grasp.make(obj, relative[0], relative[1]))
+        return GraspValue(obj, pitch, yaw, local, Grasp.make(obj, relative[0], relative[1]))
 
     def sample_pose(self, obj: str, region: str, rng: np.random.Generator) -> PoseValue | None:
         """One uniform placement on ``region``; None if the object does not fit there."""
@@ -232,9 +204,9 @@ class StreamGeometry:
         )
         for arm in self.hands.picks(stand, target, rng, self.settings.ik_attempts):
             self.sim.place_object(obj, pose.pose)
-            swept = self._motion_from(arm.pick_segments(obj, grasp.grasp))
-            if swept is not None:
-                return self._value("pick", obj, arm, swept, names)
+            value = self._motion("pick", obj, arm, arm.pick_segments(obj, grasp.grasp), names)
+            if value is not None:
+                return value
         return None
 
     def plan_place(
@@ -246,9 +218,10 @@ class StreamGeometry:
         self._clear(stand)
         hand = placing_hand(pose.pose, grasp.grasp)
         for arm in self.hands.places(stand, hand, rng, self.settings.ik_attempts):
-            swept = self._motion_from(arm.place_segments(obj, grasp.grasp, pose.pose))
-            if swept is not None:
-                return self._value("place", obj, arm, swept, names)
+            segments = arm.place_segments(obj, grasp.grasp, pose.pose)
+            value = self._motion("place", obj, arm, segments, names)
+            if value is not None:
+                return value
         return None
 
     def plan_open(self, door: str, rng: np.random.Generator) -> MotionValue | None:
@@ -261,10 +234,9 @@ class StreamGeometry:
             arm = self.hands.open(door, stand, rng, self.settings.ik_attempts)
             if arm is None:
                 continue
-            swept = self._motion_from(arm.open_segments(), own=door)
-            if swept is None:
-                continue
-            return self._value("open", door, arm, swept)
+            value = self._motion("open", door, arm, arm.open_segments(), own=door)
+            if value is not None:
+                return value
         return None
 
     # ------------------------------------------------------------------ tests

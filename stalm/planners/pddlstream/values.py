@@ -19,7 +19,6 @@ SE2 = tuple[float, float, float]
 POSE = "pose"
 GRASP = "grasp"
 MOTION = "motion"
-KINDS = (POSE, GRASP, MOTION)
 OPTIMISTIC_PREFIX = "opt_"
 
 
