@@ -36,7 +36,7 @@ from stalm.progress import Progress
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
 from stalm.search import LeafValue, SearchPolicies, SearchSettings
 from stalm.search.policies import ValueFunction
-from stalm.search.puct import PUCTSelection, uniform_prior, vote_prior
+from stalm.search.puct import AUTHORS_UNIFORM_WEIGHT, PUCTSelection, uniform_prior, vote_prior
 from stalm.search.search_mdp import SearchMDP
 from stalm.search.tree import Edge, SearchTree
 from stalm.settings.tree import RunSettings
@@ -44,10 +44,6 @@ from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import state_request_seed
 from stalm.world.problem import Problem
 from stalm.world.state import State
-
-UNIFORM_WEIGHT = 0.5
-"""Weight of the uniform distribution mixed into the prior's votes (the authors' 0.5), a
-constant of the method that the settings tree does not hold."""
 
 
 @dataclass(frozen=True)
@@ -134,7 +130,7 @@ class LLMPrior:
         votes = self._votes_for(state, actions)
         if votes is None:
             return uniform_prior(actions)
-        return vote_prior(votes, actions, self.samples, UNIFORM_WEIGHT)
+        return vote_prior(votes, actions, self.samples, AUTHORS_UNIFORM_WEIGHT)
 
     def _votes_for(
         self, state: State, actions: tuple[DiscreteAction, ...]

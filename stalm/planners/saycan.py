@@ -42,7 +42,7 @@ from stalm.predicates.literals import GroundLiteral
 from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
 from stalm.proposers.model_backend import use_constraint
-from stalm.search.puct import vote_prior
+from stalm.search.puct import AUTHORS_UNIFORM_WEIGHT, vote_prior
 from stalm.settings.tree import RunSettings
 from stalm.trial.episode import Episode
 from stalm.trial.online import Decision, OnlinePlanner, Trial
@@ -72,7 +72,7 @@ def saycan_scores(
     n_replies: int,
     candidates: Sequence[DiscreteAction],
     affordable: Affordance,
-    uniform_weight: float = 0.5,
+    uniform_weight: float = AUTHORS_UNIFORM_WEIGHT,
 ) -> tuple[SayCanScore, ...]:
     """SayCan's scores of ``candidates`` from the first actions of ``n_replies`` replies.
 
@@ -191,7 +191,7 @@ class SayCanConstants:
     """EP-SayCan's own constants, which the settings tree does not hold: the replies' votes
     mixed 0.5 with uniform (the authors' prior), the queries per state, the temperature."""
 
-    uniform_weight: float = 0.5
+    uniform_weight: float = AUTHORS_UNIFORM_WEIGHT
     """Weight of the uniform distribution in the LLM score; 0 scores by the votes alone."""
     max_queries_per_step: int = 3
     """Queries at one state whose replies gave every affordable action a score of 0 before the

@@ -60,6 +60,11 @@ class PUCTSelection:
         return argmax_random_tie(self.scores(stats), rng)
 
 
+AUTHORS_UNIFORM_WEIGHT = 0.5
+"""The weight of the uniform distribution in :func:`vote_prior` that the authors mix in for
+both LLM-MCTS's prior and EP-SayCan's LLM score: a constant of those methods, not a setting."""
+
+
 def uniform_prior(actions: Sequence[object]) -> np.ndarray:
     """Every action equally likely (the prior when nothing better is known)."""
     if not actions:

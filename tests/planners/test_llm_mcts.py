@@ -18,7 +18,6 @@ from stalm.llm.cache import CachedBackend
 from stalm.llm.cache_file import ReplyCache
 from stalm.llm.prompt import PromptOptions
 from stalm.planners.llm_mcts import (
-    UNIFORM_WEIGHT,
     LlmMcts,
     LlmMctsPlanner,
     LLMPrior,
@@ -28,7 +27,7 @@ from stalm.planners.registry import build_planner
 from stalm.proposers.language_model import LLMProposer
 from stalm.proposers.protocol import Proposal, ProposalRequest
 from stalm.search import SearchSettings, SearchTree, warm_started_uct
-from stalm.search.puct import uniform_prior
+from stalm.search.puct import AUTHORS_UNIFORM_WEIGHT, uniform_prior
 from stalm.settings.io import with_overrides
 from stalm.settings.tree import RunSettings
 from stalm.trial.query_seeds import state_request_seed
@@ -251,7 +250,7 @@ def test_registry_builds_llm_mcts_with_the_paper_defaults() -> None:
     assert isinstance(method, LlmMcts) and planner.name == "llm-mcts"
     search = method.settings.search.search_settings()
     assert search.budget == 35 and search.c == 50.0 and method.settings.search.batch == 5
-    assert UNIFORM_WEIGHT == 0.5
+    assert AUTHORS_UNIFORM_WEIGHT == 0.5
     custom = build_planner("llm-mcts", settings_of(llm="http://127.0.0.1:9/v1#m", sims=7, batch=3))
     assert isinstance(custom.start, LlmMcts)
     assert custom.start.settings.search.search_settings().budget == 7
