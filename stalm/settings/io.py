@@ -41,12 +41,8 @@ NOT_COUNTS = ("predicates.seed", "predicates.workers")
 the words every count of processes is refused with (0 and -1 alike)."""
 
 
-def _hints(cls: type) -> dict[str, Any]:
-    return typing.get_type_hints(cls)
-
-
 def _sections() -> dict[str, type]:
-    return {f.name: _hints(RunSettings)[f.name] for f in dataclasses.fields(RunSettings)}
+    return typing.get_type_hints(RunSettings)  # the sections by name, in field order
 
 
 def _is_section(hint: Any) -> bool:
@@ -57,7 +53,7 @@ def _is_section(hint: Any) -> bool:
 
 def _leaves(prefix: str, cls: type) -> list[str]:
     """The dotted keys of every value below section ``cls`` at ``prefix``, in field order."""
-    hints = _hints(cls)
+    hints = typing.get_type_hints(cls)
     keys: list[str] = []
     for f in dataclasses.fields(cls):
         key = f"{prefix}.{f.name}"
@@ -90,7 +86,7 @@ def _field_type(key: str, source: str) -> Any:
             valid = ", ".join(f"{path}.{f}" for f in fields)
             what = f"'{path}' is a section" if not name else f"unknown setting '{shown}'"
             raise StalmError(f"{source}: {what} (valid: {valid})")
-        hint = _hints(cls)[name]
+        hint = typing.get_type_hints(cls)[name]
         if not _is_section(hint):
             if names:
                 raise StalmError(f"{source}: unknown setting '{shown}' ({path}.{name} is a value)")
@@ -169,7 +165,7 @@ def _names_section(key: str) -> bool:
     for name in names:
         if not _is_section(cls):
             return False
-        cls = _hints(cls).get(name)
+        cls = typing.get_type_hints(cls).get(name)
     return _is_section(cls)
 
 
