@@ -177,10 +177,7 @@ class FeedbackMemory:
         holding: list[FailedStep] = []
         for step in self.steps:
             key = _key(step)
-            if not step.is_rule:
-                if step.holds_in(state):
-                    holding.append(step)
-            elif key in self.refuted:
+            if step.is_rule and key in self.refuted:
                 holding += [s for s in self.exact.get(key, {}).values() if s.holds_in(state)]
             elif step.holds_in(state):
                 holding.append(step)
