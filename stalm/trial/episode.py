@@ -120,14 +120,8 @@ class Episode:
         start = time.monotonic()
         budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
         state = problem.initial_state
-        return Episode(
-            problem,
-            start,
-            start + budget,
-            state,
-            states=[state],
-            clock=PhaseClock(observer=observer),
-        )
+        clock = PhaseClock(observer=observer)
+        return Episode(problem, start, start + budget, state, states=[state], clock=clock)
 
     @property
     def observer(self) -> TrialObserver:
