@@ -183,12 +183,9 @@ def _facts_and_support(
 def _rule(
     problem: Problem, state: State, action: DiscreteAction, exact: FailedStep
 ) -> FailedStep | None:
-    """The symbolic rule the failure ``exact`` generalises to (None if none): a placement with
-    no free spot whose samples hit movable objects on the region, or whose arm hit them
-    (reaching past them into the region), is ruled out while those objects are there (P5's
-    cans after the grill, which stands in front of the walled pocket and is too tall to reach
-    over); so is a pick that collided with movable objects resting on the object's own region
-    (P5's coke behind the grill)."""
+    """The **rule** (see the module) the failure ``exact`` generalises to, None if it is no
+    crowded placement or pick: P5's grill stands in front of the walled pocket and is too tall
+    to reach over, so the cans fail beside it, and the coke behind it."""
     spec, why = problem.spec, exact.failure
     if isinstance(action, Place) and why.kind in CROWDING_KINDS:
         region = action.ref if action.direction == "on" else region_of(spec, state, action.ref)

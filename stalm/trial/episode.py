@@ -217,15 +217,13 @@ class Episode:
     ) -> PlanResult:
         """The trial's result; a 'goal' run is replayed in a fresh scene before it counts.
         ``domain`` is None for a trial whose deadline passed before its scene was built."""
-        verified = True
         replay_reason = None
         if termination == "goal":
             tick = time.monotonic()
             report = replay_plan(self.problem, self.problem.initial_state, self.executed)
             self.clock.execution += time.monotonic() - tick
-            verified = report.reached_goal
             replay_reason = report.reason
-            if not verified:
+            if not report.reached_goal:
                 termination = "replay_failed"
         clock = self.clock
         total = time.monotonic() - self.start_time
@@ -233,7 +231,7 @@ class Episode:
             problem=self.problem.name,
             planner=planner,
             seed=seed,
-            success=termination == "goal" and verified,
+            success=termination == "goal",
             plan=tuple(self.executed),
             states=tuple(self.states),
             times=PhaseTimes(

@@ -217,12 +217,8 @@ def _reason(plan: ConcretePlan) -> FailureReason | None:
 
 
 def task_plan_record(plan: ConcretePlan, root_literals: Iterable[GroundLiteral]) -> TaskPlanRecord:
-    """One task plan and what Concretize did with it.
-
-    ``kind`` is the Figure 5 kind (as the experiment counts it, occlusion of the first step
-    judged by ``root_literals``, the prompt's predicates); ``concretize_kind`` is the
-    transition's own; ``feasible_steps`` is how many steps got a feasible κ.
-    """
+    """One task plan and what Concretize did with it; ``root_literals`` (the prompt's
+    predicates) judge whether its first step was occluded (its Figure 5 ``kind``)."""
     return TaskPlanRecord(
         index=plan.index,
         actions=tuple(action_json(action) for action in plan.task_plan.actions),
