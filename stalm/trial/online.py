@@ -4,13 +4,11 @@ STaLM and the baselines that act online (UCT, UCT-with-Hcount, EP-SayCan,
 Iterative-Replanning, LLM-MCTS) all run the same trial: start one wall-clock deadline and one
 simulator, repeatedly decide what to execute in the current state and execute it, stop at the
 goal, the horizon or the deadline (also when it passes during a predicate computation, which
-the deadline bounds), and replay the executed plan in a fresh scene before it
-counts (:meth:`Episode.finish`). :class:`OnlinePlanner` is that trial; a method is the part
-that says what it decides (:class:`Decider`, made by the planner's ``start``). :class:`Trial`
-is what a decision may use: the domain, the bookkeeping
-(:class:`~stalm.trial.episode.Episode`), the one predicate memo of the trial
-(:class:`~stalm.predicates.memo.PredicateMemo`), the seeded generator, the search tree kept
-between real steps, phase timing and progress messages.
+the deadline bounds), and replay the executed plan in a fresh scene before it counts
+(:meth:`Episode.finish`). :class:`OnlinePlanner` is that trial; a method is the part that says
+what it decides (:class:`Decider`, made by the planner's ``start``), from what :class:`Trial`
+gives it (the bookkeeping of :class:`~stalm.trial.episode.Episode`, the seeded generator, the
+search tree kept between real steps, phase timing and progress messages).
 """
 
 from __future__ import annotations
