@@ -16,8 +16,8 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -94,11 +94,9 @@ class Trial:
         """Report progress to the trial's observer (``stalm solve`` prints it)."""
         self.episode.observer.message(message)
 
-    @contextmanager
-    def phase(self, name: str | None) -> Iterator[None]:
+    def phase(self, name: str | None) -> AbstractContextManager[None]:
         """Charge the block's wall time to phase ``name`` (see :meth:`PhaseClock.timed`)."""
-        with self.episode.clock.timed(name):
-            yield
+        return self.episode.clock.timed(name)
 
     def tree_at(self, state: State) -> SearchTree:
         """The tree rooted at ``state``: the one kept from the last step if it is rooted

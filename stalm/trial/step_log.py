@@ -106,18 +106,12 @@ class ProposalRound:
     lessons: RoundLessons | None = None
 
     def to_json(self) -> JsonObject:
-        entry: JsonObject = {
-            "round": self.round,
-            "feedback_facts": self.feedback_facts,
-            "plans": [plan.to_json() for plan in self.plans],
-        }
-        if self.set_aside:
-            entry["set_aside"] = list(self.set_aside)
-        if self.lessons is not None:
-            entry["failures"] = list(self.lessons.failures)
-            entry["facts_learned"] = self.lessons.facts_learned
-            entry["rules_refuted"] = self.lessons.rules_refuted
-        return entry
+        """The fields as JSON, ``set_aside`` only when there is any, the lessons' at the end."""
+        entry = record_json(self, omitted_when_none={"lessons"})
+        if not self.set_aside:
+            del entry["set_aside"]
+        lessons: JsonObject = entry.pop("lessons", {})
+        return entry | lessons
 
 
 @dataclass(frozen=True)
