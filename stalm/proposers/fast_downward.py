@@ -212,14 +212,11 @@ class _Query:
         seeds = [plan_seed(self.request.seed, index) for index in range(self.request.n)]
         plans, reasons = self.search(base, rules, seeds)
         if not plans and rules and not _gave_up(reasons):
-            # the generalised rules contradict each other (P5: no can after the grill, and
-            # no grill after a can that was drawn in front). Nothing here tells the wrong one:
-            # neither its age (P5's wrong rules came first, P6's last) nor how often it failed
-            # (every failed try of the right order counts for the wrong rule). So each plan of
-            # the batch gives them up in its own order drawn from the seed, until Fast
-            # Downward finds a plan: the batch offers Concretize several resolutions at once,
-            # and the counterexamples it and the search find refute the wrong rules for good
-            # (FeedbackMemory).
+            # the generalised rules contradict each other (P5: no can after the grill, and no
+            # grill after a can drawn in front), and nothing here tells the wrong one: neither
+            # its age (P5's wrong rules came first, P6's last) nor how often it failed
+            # (FeedbackMemory). So the batch offers Concretize several resolutions at once, and
+            # the counterexamples it and the search find refute the wrong rules for good.
             plans, reasons = self.resolve(base, rules)
         return plans, reasons
 
