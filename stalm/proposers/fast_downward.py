@@ -15,7 +15,7 @@ import resource
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,7 +34,6 @@ from stalm.proposers.occlusion_cycles import without_occlusion_cycles
 from stalm.proposers.protocol import Proposal, ProposalRequest
 from stalm.proposers.task_objects import task_objects
 from stalm.temp_folders import temporary_folder
-from stalm.world.problem import Problem
 
 SEARCH = "lazy_greedy([ff()], preferred=[ff()], randomize_successors=true, random_seed={seed})"
 
@@ -74,16 +73,9 @@ def translate_task(work: Path, time_limit_s: float) -> None:
     writing ``task.sas`` there. Raises :class:`DownwardGaveUp` when it runs out of memory or
     is killed, :class:`subprocess.TimeoutExpired` past ``time_limit_s``, and
     :class:`StalmError` with its message if it rejects the task (a bug in the PDDL)."""
+    files = ["domain.pddl", "problem.pddl", "--sas-file", "task.sas"]
     translate = stopping.run_child(
-        [
-            sys.executable,
-            "-m",
-            "fast_downward.translate",
-            "domain.pddl",
-            "problem.pddl",
-            "--sas-file",
-            "task.sas",
-        ],
+        [sys.executable, "-m", "fast_downward.translate", *files],
         cwd=work,
         capture_output=True,
         text=True,
@@ -139,11 +131,6 @@ def search_task(
     return SearchRun(plan_file.read_text(), run.stdout, run.returncode)
 
 
-def _read_plan(text: str) -> tuple[DiscreteAction, ...]:
-    """Fast Downward's plan file as the proposer's discrete actions."""
-    return tuple(discrete_from_json(list(step)) for step in read_plan_steps(text))
-
-
 @dataclass
 class SymbolicProposer:
     """Up to N task plans from a classical planner on the state's predicates.
@@ -178,28 +165,17 @@ class SymbolicProposer:
         return True
 
     def propose(self, request: ProposalRequest) -> Proposal:
-        problem, literals, feedback = request.problem, request.literals, request.feedback
-        n, seed, deadline = request.n, request.seed, request.deadline
-        vocabulary = Vocabulary.from_problem(problem)
-
-        def limit() -> float:
-            """Each Fast Downward call gets its limit, or what is left before the deadline."""
-            if deadline is None:
-                return self.time_limit_s
-            return max(0.5, min(self.time_limit_s, deadline - time.monotonic()))
-
+        query = _Query(self, request, Vocabulary.from_problem(request.problem))
         start = time.perf_counter()
-        exact = [step for step in feedback if not step.is_rule]
-        rules = [step for step in feedback if step.is_rule]
-        base = set(literals) | {fact for step in exact for fact in step.facts}
-        plans, reasons = self._plans(problem, vocabulary, base, rules, n, seed, limit, deadline)
+        exact = [step for step in request.feedback if not step.is_rule]
+        rules = [step for step in request.feedback if step.is_rule]
+        base = set(request.literals) | {fact for step in exact for fact in step.facts}
+        plans, reasons = query.plans(base, rules)
         set_aside: frozenset[GroundLiteral] = frozenset()
         if self.break_occlusion_cycles and not plans and not _gave_up(reasons):
             kept, set_aside = without_occlusion_cycles(base)
-            if set_aside and not _past(deadline):
-                plans, more = self._plans(
-                    problem, vocabulary, set(kept), rules, n, seed, limit, deadline
-                )
+            if set_aside and not query.past():
+                plans, more = query.plans(set(kept), rules)
                 reasons += more
         return Proposal(
             plans=tuple(plans),
@@ -209,69 +185,58 @@ class SymbolicProposer:
             set_aside=tuple(str(lit) for lit in sorted(set_aside)) if plans else (),
         )
 
-    def _plans(
-        self,
-        problem: Problem,
-        vocabulary: Vocabulary,
-        base: set[GroundLiteral],
-        rules: Sequence[FailedStep],
-        n: int,
-        seed: int,
-        limit: Callable[[], float],
-        deadline: float | None,
-    ) -> tuple[list[tuple[DiscreteAction, ...]], list[str]]:
+
+_Found = tuple[list[tuple[DiscreteAction, ...]], list[str]]
+"""Distinct plans, and the reasons of the Fast Downward runs that gave none."""
+
+
+@dataclass(frozen=True)
+class _Query:
+    """The Fast Downward runs of one proposal: the proposer, its request and the vocabulary."""
+
+    proposer: SymbolicProposer
+    request: ProposalRequest
+    vocabulary: Vocabulary
+
+    def limit(self) -> float:
+        """Each Fast Downward call gets its limit, or what is left before the deadline."""
+        deadline, limit = self.request.deadline, self.proposer.time_limit_s
+        return limit if deadline is None else max(0.5, min(limit, deadline - time.monotonic()))
+
+    def past(self) -> bool:
+        return self.request.deadline is not None and time.monotonic() >= self.request.deadline
+
+    def plans(self, base: set[GroundLiteral], rules: Sequence[FailedStep]) -> _Found:
         """Up to ``n`` plans on ``base`` and the rules, giving the rules up when they leave
-        no plan (:meth:`_resolve`), and the reasons of the searches that gave none."""
-        seeds = [plan_seed(seed, index) for index in range(n)]
-        plans, reasons = self._search(problem, vocabulary, base, rules, seeds, limit, deadline)
+        no plan (:meth:`resolve`)."""
+        seeds = [plan_seed(self.request.seed, index) for index in range(self.request.n)]
+        plans, reasons = self.search(base, rules, seeds)
         if not plans and rules and not _gave_up(reasons):
-            # the generalised rules contradict each other (P5: no can after the grill, and
-            # no grill after a can that was drawn in front). Nothing here tells the wrong one:
-            # neither its age (P5's wrong rules came first, P6's last) nor how often it failed
-            # (every failed try of the right order counts for the wrong rule). So each plan of
-            # the batch gives them up in its own order drawn from the seed, until Fast
-            # Downward finds a plan: the batch offers Concretize several resolutions at once,
-            # and the counterexamples it and the search find refute the wrong rules for good
-            # (FeedbackMemory).
-            plans, reasons = self._resolve(
-                problem, vocabulary, base, rules, n, seed, limit, deadline
-            )
+            # the generalised rules contradict each other (P5: no can after the grill, and no
+            # grill after a can drawn in front), and nothing here tells the wrong one: neither
+            # its age (P5's wrong rules came first, P6's last) nor how often it failed
+            # (FeedbackMemory). So the batch offers Concretize several resolutions at once, and
+            # the counterexamples it and the search find refute the wrong rules for good.
+            plans, reasons = self.resolve(base, rules)
         return plans, reasons
 
-    def _resolve(
-        self,
-        problem: Problem,
-        vocabulary: Vocabulary,
-        init: set[GroundLiteral],
-        rules: Sequence[FailedStep],
-        n: int,
-        seed: int,
-        limit: Callable[[], float],
-        deadline: float | None,
-    ) -> tuple[list[tuple[DiscreteAction, ...]], list[str]]:
+    def resolve(self, init: set[GroundLiteral], rules: Sequence[FailedStep]) -> _Found:
         """Up to ``n`` plans, the ``k``-th from the rules left after giving them up one by one
         in the order ``default_rng([seed, k])`` draws (``seed`` mod 2**64, as in
         :func:`plan_seed`), until Fast Downward finds a plan (each set of rules is searched
         once)."""
+        n, seed = self.request.n, self.request.seed
         plans: list[tuple[DiscreteAction, ...]] = []
         reasons: list[str] = []
         found: dict[frozenset[int], list[tuple[DiscreteAction, ...]]] = {}
         for k in range(n):
             kept = list(np.random.default_rng([seed % 2**64, k]).permutation(len(rules)))
-            while kept and not _past(deadline):
+            while kept and not self.past():
                 kept = kept[:-1]
                 key = frozenset(int(i) for i in kept)
                 if key not in found:
                     subset = [rules[i] for i in sorted(key)]
-                    found[key], why = self._search(
-                        problem,
-                        vocabulary,
-                        init,
-                        subset,
-                        [plan_seed(seed, n + k)],
-                        limit,
-                        deadline,
-                    )
+                    found[key], why = self.search(init, subset, [plan_seed(seed, n + k)])
                     reasons += why
                     if _gave_up(why):
                         return plans, reasons
@@ -281,55 +246,49 @@ class SymbolicProposer:
                     break
         return plans, reasons
 
-    def _search(
-        self,
-        problem: Problem,
-        vocabulary: Vocabulary,
-        init: set[GroundLiteral],
-        rules: Sequence[FailedStep],
-        seeds: Sequence[int],
-        limit: Callable[[], float],
-        deadline: float | None,
-    ) -> tuple[list[tuple[DiscreteAction, ...]], list[str]]:
-        """The distinct plans of one Fast Downward run per seed on ``init`` and the rules, and
-        the reasons of the runs that gave none."""
+    def search(
+        self, init: set[GroundLiteral], rules: Sequence[FailedStep], seeds: Sequence[int]
+    ) -> _Found:
+        """One Fast Downward run per seed on ``init`` and the rules."""
         plans: list[tuple[DiscreteAction, ...]] = []
         reasons: list[str] = []
-        if _past(deadline):  # the caller stops with 'timeout'; no Fast Downward past it
+        if self.past():  # the caller stops with 'timeout'; no Fast Downward past it
             return plans, reasons
-        goal = goal_literals(problem)
+        relations_only = self.proposer.goal_relations_only
+        goal = goal_literals(self.request.problem)
         facts = sorted(init | set(_rule_literals(rules)))
-        if self.needed_objects_only and self.goal_relations_only:
+        vocabulary = self.vocabulary
+        if self.proposer.needed_objects_only and relations_only:
             vocabulary, facts = task_objects(vocabulary, facts, goal)
         with temporary_folder("fd") as folder:
             work = Path(folder)
             (work / "domain.pddl").write_text(
-                domain_pddl(feedback=True, goal_relations_only=self.goal_relations_only)
+                domain_pddl(feedback=True, goal_relations_only=relations_only)
             )
             (work / "problem.pddl").write_text(
                 problem_pddl(vocabulary, facts, goal, "state", feedback=True, failures=len(rules))
             )
             try:
-                translate_task(work, limit())
+                translate_task(work, self.limit())
             except subprocess.TimeoutExpired:
                 # cut by the trial's deadline: nothing to report (the caller times out)
-                why = [] if _past(deadline) else ["Fast Downward's translator hit its time limit"]
+                why = [] if self.past() else ["Fast Downward's translator hit its time limit"]
                 return plans, why
             except DownwardGaveUp as error:
                 return plans, [str(error)]
             for fd_seed in seeds:
-                if deadline is not None and time.monotonic() >= deadline:
+                if self.past():
                     break
                 try:
-                    run = search_task(work, SEARCH.format(seed=fd_seed), limit())
+                    run = search_task(work, SEARCH.format(seed=fd_seed), self.limit())
                 except subprocess.TimeoutExpired:
-                    if not _past(deadline):
+                    if not self.past():
                         reasons.append("Fast Downward found no plan in its time limit")
                     continue
                 if run.plan is None:
                     reasons.append(_why(run))
                     continue
-                plan = _read_plan(run.plan)
+                plan = tuple(discrete_from_json(list(step)) for step in read_plan_steps(run.plan))
                 if plan not in plans:
                     plans.append(plan)
         return plans, reasons
@@ -356,10 +315,6 @@ def _rule_literals(rules: Sequence[FailedStep]) -> list[GroundLiteral]:
             literals.append(GroundLiteral("ForbidsPick", (name, *step.forbids_pick)))
         literals += [GroundLiteral("Needs", (name, other)) for other in step.besides]
     return literals
-
-
-def _past(deadline: float | None) -> bool:
-    return deadline is not None and time.monotonic() >= deadline
 
 
 def _gave_up(reasons: Sequence[str]) -> bool:

@@ -132,20 +132,7 @@ def failed_steps(problem: Problem, plans: Iterable[ConcretePlan]) -> tuple[Faile
             support=support,
             open_doors=step.state.open_doors,
         )
-        forbids, besides = _crowded_placement(problem, step.state, step.action, why)
-        forbids_pick, pick_besides = _crowded_pick(problem, step.state, step.action, why)
-        if forbids is not None:
-            refs = [forbids[2]] if step.state.has_pose(forbids[2]) else []
-            support = tuple((n, step.state.pose(n)) for n in refs)
-            rule = replace(exact, forbids=forbids, besides=besides, support=support)
-        elif forbids_pick is not None:
-            # while the object itself stays where it was, wherever the others are
-            support = ((forbids_pick[0], step.state.pose(forbids_pick[0])),)
-            rule = replace(exact, forbids_pick=forbids_pick, besides=pick_besides, support=support)
-        else:
-            learned.append(exact)
-            continue
-        learned.append(replace(rule, facts=(), exact=exact))
+        learned.append(_rule(problem, step.state, step.action, exact) or exact)
     return tuple(learned)
 
 
@@ -193,52 +180,34 @@ def _facts_and_support(
     return (), poses(n for n in why.blockers if n in movables)
 
 
-def _crowded_placement(
-    problem: Problem, state: State, action: DiscreteAction, why: Infeasibility
-) -> tuple[tuple[str, str, str, str] | None, tuple[str, ...]]:
-    """A placement with no free spot whose samples hit movable objects on the region, or whose
-    arm hit them (reaching past them into the region): the symbolic rule 'not there while
-    those objects are there' (P5's cans after the grill, which stands in front of the walled
-    pocket and is too tall to reach over)."""
-    if not isinstance(action, Place) or why.kind not in CROWDING_KINDS:
-        return None, ()
-    spec = problem.spec
-    region = action.ref if action.direction == "on" else region_of(spec, state, action.ref)
+def _rule(
+    problem: Problem, state: State, action: DiscreteAction, exact: FailedStep
+) -> FailedStep | None:
+    """The **rule** (see the module) the failure ``exact`` generalises to, None if it is no
+    crowded placement or pick: P5's grill stands in front of the walled pocket and is too tall
+    to reach over, so the cans fail beside it, and the coke behind it."""
+    spec, why = problem.spec, exact.failure
+    if isinstance(action, Place) and why.kind in CROWDING_KINDS:
+        region = action.ref if action.direction == "on" else region_of(spec, state, action.ref)
+    elif isinstance(action, Pick):
+        region = region_of(spec, state, action.obj)
+    else:
+        return None
     if region is None:
-        return None, ()
-    besides = _blockers_on(problem, state, action.obj, region, why)
-    if not besides:
-        return None, ()
-    return (action.obj, action.direction, action.ref, region), besides
-
-
-def _blockers_on(
-    problem: Problem, state: State, obj: str, region: str, why: Infeasibility
-) -> tuple[str, ...]:
-    """The movable objects other than ``obj`` that ``why`` blames and that rest on ``region``
-    (what a crowded-placement or crowded-pick rule names), sorted."""
-    spec = problem.spec
-    return tuple(
+        return None
+    besides = tuple(
         sorted(
             b
             for b in why.blockers
-            if b != obj and state.has_pose(b) and region_of(spec, state, b) == region
+            if b != action.obj and state.has_pose(b) and region_of(spec, state, b) == region
         )
     )
-
-
-def _crowded_pick(
-    problem: Problem, state: State, action: DiscreteAction, why: Infeasibility
-) -> tuple[tuple[str, str] | None, tuple[str, ...]]:
-    """A pick that collided with movable objects resting on the object's own region: the
-    symbolic rule 'not while those objects are there' (P5's coke behind the grill)."""
-    if not isinstance(action, Pick):
-        return None, ()
-    spec = problem.spec
-    region = region_of(spec, state, action.obj)
-    if region is None:
-        return None, ()
-    besides = _blockers_on(problem, state, action.obj, region, why)
     if not besides:
-        return None, ()
-    return (action.obj, region), besides
+        return None
+    rule = replace(exact, facts=(), exact=exact, besides=besides)
+    if isinstance(action, Pick):  # while the object stays where it was, wherever the others are
+        support = ((action.obj, state.pose(action.obj)),)
+        return replace(rule, forbids_pick=(action.obj, region), support=support)
+    refs = [action.ref] if state.has_pose(action.ref) else []
+    forbids = (action.obj, action.direction, action.ref, region)
+    return replace(rule, forbids=forbids, support=tuple((n, state.pose(n)) for n in refs))

@@ -1,11 +1,6 @@
-"""What one trial remembers of geometric feedback, and what refutes a rule.
-
-:mod:`stalm.proposers.feedback` turns a failed Concretize step into a :class:`FailedStep`;
-this module keeps them for the trial (:class:`FeedbackMemory`) and collects the evidence
-against the generalised ones: every pick and placement that Concretize or the search tree
-found feasible (:class:`Grounded`). One counterexample is enough to stop handing a rule to
-the proposer; what was actually observed stays, scoped to its poses.
-"""
+"""What one trial remembers of geometric feedback (:class:`FeedbackMemory`), and the evidence
+that refutes a rule: every pick and placement Concretize or the search tree found feasible
+(:class:`Grounded`)."""
 
 from __future__ import annotations
 
@@ -177,10 +172,7 @@ class FeedbackMemory:
         holding: list[FailedStep] = []
         for step in self.steps:
             key = _key(step)
-            if not step.is_rule:
-                if step.holds_in(state):
-                    holding.append(step)
-            elif key in self.refuted:
+            if step.is_rule and key in self.refuted:
                 holding += [s for s in self.exact.get(key, {}).values() if s.holds_in(state)]
             elif step.holds_in(state):
                 holding.append(step)

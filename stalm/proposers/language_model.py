@@ -1,10 +1,6 @@
-"""Task-plan proposers: where a batch of task plans comes from.
-
-The paper's proposer is a language model queried with the predicate prompt (§3.2–3.3):
-:class:`LLMProposer` builds the prompt for the current state, asks the backend for N_batch
-replies at temperature 1, and parses each reply into a task plan, keeping unparseable replies
-as data with their reason.
-"""
+"""The paper's task-plan proposer (§3.2–3.3): :class:`LLMProposer` asks a language model with
+the predicate prompt of the current state for N_batch replies at temperature 1, and parses
+each reply into a task plan, keeping unparseable replies as data with their reason."""
 
 from __future__ import annotations
 

@@ -18,12 +18,12 @@ two need not agree: the classifier calls a plan a precondition violation only wh
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from stalm.errors import StalmError
-from stalm.json_object import JsonObject
+from stalm.json_object import JsonObject, record_json
 from stalm.predicates.literals import GroundLiteral
 from stalm.proposers.plan_noise import PlanContext, corrupt_plans
 from stalm.proposers.protocol import Proposal, ProposalRequest, TaskPlanProposer
@@ -111,12 +111,8 @@ class NoiseRecord:
     plans: tuple[InjectedPlan, ...]
 
     def to_json(self) -> JsonObject:
-        return {
-            "rate": self.rate,
-            "weights": dict(zip(NOISE_KINDS, self.weights, strict=True)),
-            "inner": self.inner,
-            "plans": [asdict(plan) for plan in self.plans],
-        }
+        """The fields as JSON, the weights by kind."""
+        return record_json(self) | {"weights": dict(zip(NOISE_KINDS, self.weights, strict=True))}
 
 
 def injected_records(

@@ -67,10 +67,8 @@ class PlanContext:
 
     @staticmethod
     def of(problem: Problem, literals: Iterable[GroundLiteral]) -> PlanContext:
-        footprints = []
-        for obj in problem.spec.objects:
-            hx, hy, _ = obj.half_extents
-            footprints.append((obj.name, 4.0 * hx * hy))
+        objects = problem.spec.objects
+        footprints = [(o.name, 4.0 * o.half_extents[0] * o.half_extents[1]) for o in objects]
         regions: dict[str, str] = {}
         occluders: dict[tuple[str, ...], set[str]] = {}
         for literal in literals:

@@ -117,15 +117,9 @@ def check_proposer(proposer: object) -> None:
     """A StalmError naming what ``proposer`` lacks of :class:`TaskPlanProposer`: a proposer
     written for an older stalm (``propose(problem, state, literals, n, seed, ...)``, feedback
     found from its signature) would otherwise fail with a traceback at its first query."""
-    missing = [
-        part
-        for part, present in (
-            ("name", hasattr(proposer, "name")),
-            ("takes_feedback", hasattr(proposer, "takes_feedback")),
-            ("propose(request)", callable(getattr(proposer, "propose", None))),
-        )
-        if not present
-    ]
+    missing = [part for part in ("name", "takes_feedback") if not hasattr(proposer, part)]
+    if not callable(getattr(proposer, "propose", None)):
+        missing.append("propose(request)")
     if missing:
         raise StalmError(
             f"{type(proposer).__name__} is no task-plan proposer: it has no "

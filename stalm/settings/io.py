@@ -41,12 +41,8 @@ NOT_COUNTS = ("predicates.seed", "predicates.workers")
 the words every count of processes is refused with (0 and -1 alike)."""
 
 
-def _hints(cls: type) -> dict[str, Any]:
-    return typing.get_type_hints(cls)
-
-
 def _sections() -> dict[str, type]:
-    return {f.name: _hints(RunSettings)[f.name] for f in dataclasses.fields(RunSettings)}
+    return typing.get_type_hints(RunSettings)  # the sections by name, in field order
 
 
 def _is_section(hint: Any) -> bool:
@@ -57,7 +53,7 @@ def _is_section(hint: Any) -> bool:
 
 def _leaves(prefix: str, cls: type) -> list[str]:
     """The dotted keys of every value below section ``cls`` at ``prefix``, in field order."""
-    hints = _hints(cls)
+    hints = typing.get_type_hints(cls)
     keys: list[str] = []
     for f in dataclasses.fields(cls):
         key = f"{prefix}.{f.name}"
@@ -70,32 +66,37 @@ def setting_keys() -> list[str]:
     return [key for section, cls in _sections().items() for key in _leaves(section, cls)]
 
 
-def _field_type(key: str, source: str) -> Any:
-    """The type of the value at dotted ``key``; a StalmError listing valid keys if none (a
-    key that names a section is no value either)."""
+def _walk(key: str, source: str) -> Any:
+    """The value type or the (sub)section class at dotted ``key``; a StalmError listing the
+    valid keys if there is none (an empty name names the section it is in)."""
     sections = _sections()
-    section, _, rest = key.partition(".")
+    section, *names = key.split(".")
     shown = key if len(key) <= 80 and key.isprintable() else excerpt(key, 80)
     if section not in sections:
         raise StalmError(
             f"{source}: unknown setting '{shown}' (sections: {', '.join(sections)}; "
             f"e.g. search.c; `stalm solve P1 --show-settings` lists every key)"
         )
-    cls, path = sections[section], section
-    names = rest.split(".") if rest else []
-    while True:
-        fields = [f.name for f in dataclasses.fields(cls)]
-        name = names.pop(0) if names else ""
+    node, path = sections[section], section
+    for name in names:
+        if not _is_section(node):
+            raise StalmError(f"{source}: unknown setting '{shown}' ({path} is a value)")
+        fields = [f.name for f in dataclasses.fields(node)]
         if name not in fields:
             valid = ", ".join(f"{path}.{f}" for f in fields)
             what = f"'{path}' is a section" if not name else f"unknown setting '{shown}'"
             raise StalmError(f"{source}: {what} (valid: {valid})")
-        hint = _hints(cls)[name]
-        if not _is_section(hint):
-            if names:
-                raise StalmError(f"{source}: unknown setting '{shown}' ({path}.{name} is a value)")
-            return hint
-        cls, path = hint, f"{path}.{name}"
+        node, path = typing.get_type_hints(node)[name], f"{path}.{name}"
+    return node
+
+
+def _field_type(key: str, source: str) -> Any:
+    """The type of the value at dotted ``key`` (see :func:`_walk`; a section is no value)."""
+    hint = _walk(key, source)
+    if _is_section(hint):
+        valid = ", ".join(f"{key}.{f.name}" for f in dataclasses.fields(hint))
+        raise StalmError(f"{source}: '{key}' is a section (valid: {valid})")
+    return hint
 
 
 def _describe(hint: Any) -> str:
@@ -162,17 +163,6 @@ def _checked(key: str, value: Any, source: str) -> Any:
     return coerced
 
 
-def _names_section(key: str) -> bool:
-    """Whether dotted ``key`` names a section or subsection (``proposer.noise``)."""
-    section, *names = key.split(".")
-    cls: Any = _sections().get(section)
-    for name in names:
-        if not _is_section(cls):
-            return False
-        cls = _hints(cls).get(name)
-    return _is_section(cls)
-
-
 def _replaced(part: Any, names: list[str], value: Any) -> Any:
     """Section ``part`` with the value at the dotted path ``names`` below it replaced (the
     sections on the way rebuilt, so each checks itself again)."""
@@ -222,13 +212,11 @@ def flatten(data: Mapping[str, Any], source: str) -> list[tuple[str, Any]]:
     """(dotted key, value) pairs of a nested mapping of sections (dotted keys allowed, and the
     flat names); a value that is a mapping must be a section's (or a subsection's, such as
     ``proposer: {noise: {rate: 0.25}}``)."""
-    sections = _sections()
     pairs: list[tuple[str, Any]] = []
     for key, value in data.items():
         key = str(key)
         if isinstance(value, Mapping):
-            if key not in sections and not _names_section(key):
-                _field_type(key, source)  # raises for an unknown key, listing the valid ones
+            if not _is_section(_walk(key, source)):  # raises for an unknown key
                 raise StalmError(f"{source}: {key} is a setting, not a section")
             pairs += flatten({f"{key}.{name}": inner for name, inner in value.items()}, source)
         else:

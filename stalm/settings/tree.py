@@ -64,8 +64,8 @@ FLAT_NAMES: dict[str, str] = {
 and records, and what a trial's key is computed from) and the tree path each one is."""
 
 
-def _check(section: str, checks: tuple[tuple[str, bool, str], ...], owner: object) -> None:
-    """One StalmError naming the first setting that fails its check."""
+def _check(section: str, owner: object, *checks: tuple[str, bool, str]) -> None:
+    """One StalmError naming the first setting that fails its check (name, ok, expected)."""
     for name, ok, expected in checks:
         if not ok:
             raise StalmError(
@@ -84,17 +84,12 @@ class BudgetSection:
 
     def __post_init__(self) -> None:
         budget, horizon = self.time_budget_s, self.horizon
+        positive = budget is None or (math.isfinite(budget) and budget > 0)
         _check(
             "budget",
-            (
-                (
-                    "time_budget_s",
-                    budget is None or (math.isfinite(budget) and budget > 0),
-                    "a positive number of seconds",
-                ),
-                ("horizon", horizon is None or horizon >= 1, "an integer >= 1"),
-            ),
             self,
+            ("time_budget_s", positive, "a positive number of seconds"),
+            ("horizon", horizon is None or horizon >= 1, "an integer >= 1"),
         )
 
 
@@ -125,11 +120,9 @@ class SearchSection:
     def __post_init__(self) -> None:
         _check(
             "search",
-            (
-                ("sims", self.sims is None or self.sims >= 1, "an integer >= 1"),
-                ("batch", self.batch >= 1, "an integer >= 1"),
-            ),
             self,
+            ("sims", self.sims is None or self.sims >= 1, "an integer >= 1"),
+            ("batch", self.batch >= 1, "an integer >= 1"),
         )
         self.search_settings(1)  # c, k, alpha, gamma and horizon: checked by the search layer
 
@@ -169,22 +162,17 @@ class NoiseSection:
         weights = self.weights
         _check(
             "proposer.noise",
-            (
-                ("rate", math.isfinite(self.rate) and 0.0 <= self.rate <= 1.0, "in [0, 1]"),
-                (
-                    "weights",
-                    len(weights) == len(NOISE_KINDS)
-                    and all(math.isfinite(w) and w >= 0 for w in weights)
-                    and sum(weights) > 0,
-                    f"{len(NOISE_KINDS)} numbers >= 0, not all 0 ({', '.join(NOISE_KINDS)})",
-                ),
-            ),
             self,
+            ("rate", math.isfinite(self.rate) and 0.0 <= self.rate <= 1.0, "in [0, 1]"),
+            (
+                "weights",
+                len(weights) == len(NOISE_KINDS)
+                and all(math.isfinite(w) and w >= 0 for w in weights)
+                and sum(weights) > 0,
+                f"{len(NOISE_KINDS)} numbers >= 0, not all 0 ({', '.join(NOISE_KINDS)})",
+            ),
+            ("inner", self.inner in ("symbolic", "llm"), "symbolic or llm"),
         )
-        if self.inner not in ("symbolic", "llm"):
-            raise StalmError(
-                f"setting proposer.noise.inner must be symbolic or llm, got {self.inner!r}"
-            )
 
 
 @dataclass(frozen=True)
@@ -279,14 +267,12 @@ class ExecutionSection:
         backtracks = self.backtracks
         _check(
             "execution",
-            (
-                ("feedback_rounds", self.feedback_rounds >= 1, "an integer >= 1"),
-                ("search_rounds", self.search_rounds >= 1, "an integer >= 1"),
-                ("step_share", 0.0 < self.step_share <= 1.0, "in (0, 1]"),
-                ("kappa_tries", self.kappa_tries >= 1, "an integer >= 1"),
-                ("backtracks", backtracks is None or backtracks >= 0, "an integer >= 0"),
-            ),
             self,
+            ("feedback_rounds", self.feedback_rounds >= 1, "an integer >= 1"),
+            ("search_rounds", self.search_rounds >= 1, "an integer >= 1"),
+            ("step_share", 0.0 < self.step_share <= 1.0, "in (0, 1]"),
+            ("kappa_tries", self.kappa_tries >= 1, "an integer >= 1"),
+            ("backtracks", backtracks is None or backtracks >= 0, "an integer >= 0"),
         )
 
 
@@ -322,24 +308,15 @@ class RunSettings:
         twice changes nothing; N_budget's and the language model's Nones are the registry's
         (it knows each planner's budget and which planners ask a model)."""
         execution = replace(self.execution, feedback=self.feedback(), backtracks=self.backtracks())
-        budget = self.budget
-        predicates = self.predicates
+        budget, predicates = self.budget, self.predicates
         if problem is not None:
             predicates = predicates.for_objects(len(problem.spec.objects))
+            seconds, horizon = budget.time_budget_s, budget.horizon
             budget = BudgetSection(
-                time_budget_s=(
-                    budget.time_budget_s
-                    if budget.time_budget_s is not None
-                    else problem.spec.time_budget_s
-                ),
-                horizon=budget.horizon if budget.horizon is not None else problem.horizon,
+                time_budget_s=problem.spec.time_budget_s if seconds is None else seconds,
+                horizon=problem.horizon if horizon is None else horizon,
             )
-        return replace(
-            self,
-            budget=budget,
-            execution=execution,
-            predicates=predicates,
-        )
+        return replace(self, budget=budget, execution=execution, predicates=predicates)
 
 
 def with_budget(problem: Problem, budget: BudgetSection) -> Problem:

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol
 
-from stalm.json_object import JsonObject
+from stalm.json_object import JsonObject, record_json
 
 
 class MethodDetails(Protocol):
@@ -42,13 +42,9 @@ class QueryRecord:
     truncated_plans: int
 
     def to_json(self) -> JsonObject:
-        return {
-            "from_cache": self.from_cache,
-            "seconds": round(self.seconds, 6),
-            "original_seconds": round(self.original_seconds, 6),
-            "plans": self.plans,
-            "truncated_plans": self.truncated_plans,
-        }
+        """The fields in order, the seconds rounded to the microsecond."""
+        seconds = {"seconds": self.seconds, "original_seconds": self.original_seconds}
+        return record_json(self) | {key: round(value, 6) for key, value in seconds.items()}
 
 
 @dataclass(frozen=True)

@@ -120,14 +120,8 @@ class Episode:
         start = time.monotonic()
         budget = time_budget_s if time_budget_s is not None else problem.spec.time_budget_s
         state = problem.initial_state
-        return Episode(
-            problem,
-            start,
-            start + budget,
-            state,
-            states=[state],
-            clock=PhaseClock(observer=observer),
-        )
+        clock = PhaseClock(observer=observer)
+        return Episode(problem, start, start + budget, state, states=[state], clock=clock)
 
     @property
     def observer(self) -> TrialObserver:
@@ -223,15 +217,13 @@ class Episode:
     ) -> PlanResult:
         """The trial's result; a 'goal' run is replayed in a fresh scene before it counts.
         ``domain`` is None for a trial whose deadline passed before its scene was built."""
-        verified = True
         replay_reason = None
         if termination == "goal":
             tick = time.monotonic()
             report = replay_plan(self.problem, self.problem.initial_state, self.executed)
             self.clock.execution += time.monotonic() - tick
-            verified = report.reached_goal
             replay_reason = report.reason
-            if not verified:
+            if not report.reached_goal:
                 termination = "replay_failed"
         clock = self.clock
         total = time.monotonic() - self.start_time
@@ -239,7 +231,7 @@ class Episode:
             problem=self.problem.name,
             planner=planner,
             seed=seed,
-            success=termination == "goal" and verified,
+            success=termination == "goal",
             plan=tuple(self.executed),
             states=tuple(self.states),
             times=PhaseTimes(

@@ -24,7 +24,7 @@ import numpy as np
 
 from stalm.domain.schedule import GRASP, RELEASE, PlanSchedule, schedule_plan
 from stalm.errors import StalmError
-from stalm.json_object import JsonObject
+from stalm.json_object import JsonObject, record_json
 from stalm.motion.timing import LIMIT_SCALE, MotionSamples, TimedMotion
 from stalm.trial.replay import replay_result_json
 from stalm.world.problem import PROBLEM_HASH_FIELD, Problem
@@ -144,12 +144,7 @@ def trajectories_json(problem: Problem, schedule: PlanSchedule, rate: float) -> 
         "robot": robot_entry,
         "limits": {
             "scale": LIMIT_SCALE,
-            "base": {
-                "speed": limits.base.speed,
-                "acceleration": limits.base.acceleration,
-                "turn_rate": limits.base.turn_rate,
-                "turn_acceleration": limits.base.turn_acceleration,
-            },
+            "base": record_json(limits.base),
             "arm": {
                 "joint_names": list(limits.arm.names),
                 "velocity": list(limits.arm.velocity),

@@ -4,13 +4,11 @@ STaLM and the baselines that act online (UCT, UCT-with-Hcount, EP-SayCan,
 Iterative-Replanning, LLM-MCTS) all run the same trial: start one wall-clock deadline and one
 simulator, repeatedly decide what to execute in the current state and execute it, stop at the
 goal, the horizon or the deadline (also when it passes during a predicate computation, which
-the deadline bounds), and replay the executed plan in a fresh scene before it
-counts (:meth:`Episode.finish`). :class:`OnlinePlanner` is that trial; a method is the part
-that says what it decides (:class:`Decider`, made by the planner's ``start``). :class:`Trial`
-is what a decision may use: the domain, the bookkeeping
-(:class:`~stalm.trial.episode.Episode`), the one predicate memo of the trial
-(:class:`~stalm.predicates.memo.PredicateMemo`), the seeded generator, the search tree kept
-between real steps, phase timing and progress messages.
+the deadline bounds), and replay the executed plan in a fresh scene before it counts
+(:meth:`Episode.finish`). :class:`OnlinePlanner` is that trial; a method is the part that says
+what it decides (:class:`Decider`, made by the planner's ``start``), from what :class:`Trial`
+gives it (the bookkeeping of :class:`~stalm.trial.episode.Episode`, the seeded generator, the
+search tree kept between real steps, phase timing and progress messages).
 """
 
 from __future__ import annotations
@@ -18,8 +16,8 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -96,11 +94,9 @@ class Trial:
         """Report progress to the trial's observer (``stalm solve`` prints it)."""
         self.episode.observer.message(message)
 
-    @contextmanager
-    def phase(self, name: str | None) -> Iterator[None]:
+    def phase(self, name: str | None) -> AbstractContextManager[None]:
         """Charge the block's wall time to phase ``name`` (see :meth:`PhaseClock.timed`)."""
-        with self.episode.clock.timed(name):
-            yield
+        return self.episode.clock.timed(name)
 
     def tree_at(self, state: State) -> SearchTree:
         """The tree rooted at ``state``: the one kept from the last step if it is rooted

@@ -28,11 +28,8 @@ from stalm.world.state import State
 
 
 def query_seed(trial_seed: int, step: int, attempt: int) -> int:
-    """The backend seed of one query, derived from the trial seed, the step and the attempt.
-
-    A :class:`numpy.random.SeedSequence` of the three numbers gives seeds that never collide
-    for different (step, attempt) pairs, unlike ``seed * 1000 + step``-style arithmetic.
-    """
+    """The backend seed of a baseline's query at ``step``, try ``attempt`` (never colliding,
+    unlike ``seed * 1000 + step``-style arithmetic)."""
     sequence = np.random.SeedSequence([trial_seed, step, attempt])
     return int(sequence.generate_state(1, dtype=np.uint32)[0] >> 1)
 

@@ -1,17 +1,13 @@
 """Result records read back, whichever stalm wrote them: the one place an old record is
 brought to today's shape.
 
-A record is what ``stalm solve --json`` writes (one JSON object) and what ``stalm
-experiment`` appends to a results log (one per line). ``stalm replay``, ``view``,
-``export`` and ``rerun`` read a record through :func:`read_result` or :func:`read_record`,
-and the results log's reader (:func:`stalm.experiments.results_log.read_records`, for
-resuming and the report) hands on each record through :func:`upgraded`, so no reader
-downstream knows what older versions wrote. What changed, and what :func:`upgraded` does
-about it:
-
-* the proposer's phase was named ``llm`` although Fast Downward's runs were counted there
-  too: ``times.llm`` is read as ``times.proposer`` (where both are present, ``proposer`` is
-  kept);
+``stalm replay``, ``view``, ``export`` and ``rerun`` read a record (``stalm solve --json``'s
+object, or a line of a results log) through :func:`read_result` or :func:`read_record`, and the
+results log's reader (:func:`stalm.experiments.results_log.read_records`, for resuming and
+the report) hands on each record through :func:`upgraded`, so no reader downstream knows what
+older versions wrote. What changed: the proposer's phase was named ``llm`` although Fast
+Downward's runs were counted there too, so ``times.llm`` is read as ``times.proposer`` (where
+both are present, ``proposer`` is kept).
 
 Everything else an older record may lack (its problem's hash, the settings tree, the step
 log) is not made up: each reader says what it cannot do without it.

@@ -1,8 +1,6 @@
-"""Re-execute a saved plan in a fresh scene and check that it reaches the goal.
-
-Every action's motions are swept again in the state it is applied to
-(:func:`stalm.domain.verify.check_action`); a plan whose motions collide, or which does not end
-in a goal state, is reported as failed with the step and the reason.
+"""Re-execute a saved plan in a fresh scene and check that it reaches the goal, every step
+checked as the planner checked it (:func:`replay_plan`); a plan a step of which fails, or which
+does not end in a goal state, is reported as failed with the step and the reason.
 
 A result file is not trusted (:func:`replay_result_json`): the plan starts from the problem's
 own initial state (never the state stored in the file), the file's problem hash must match
@@ -10,11 +8,7 @@ the problem's (an old file without one gets a warning), and the plan is read by
 :func:`read_plan`, the one reading of a record's plan that ``stalm replay``, ``view`` and
 ``rerun`` share: every number finite, every one the robot can have in the problem's world and
 every motion of a size a replay can sweep (:mod:`stalm.domain.plan_bounds`), all before
-anything is densified. Each step is then checked as it is executed, as the planner checked it:
-its parameters must fit the state it is applied to (its base path and arm motion start where
-the robot is), its motions must be collision-free and the state it produces must be sound
-(:func:`~stalm.domain.verify.check_consistency`, :func:`~stalm.domain.verify.check_action`,
-:func:`~stalm.domain.verify.check_outcome`).
+anything is densified.
 """
 
 from __future__ import annotations
@@ -49,7 +43,10 @@ class ReplayReport:
 def replay_plan(problem: Problem, start: State, actions: list[Action]) -> ReplayReport:
     """Execute ``actions`` from ``start`` in a fresh simulator, checking every step: its
     precondition, that its numbers are bounded (actions not read by :func:`read_plan` are
-    checked here), that its parameters fit the state, its motions, and the state it makes."""
+    checked here), that its parameters fit the state (its base path and arm motion start where
+    the robot is), that its motions are collision-free and that the state it makes is sound
+    (:func:`~stalm.domain.verify.check_consistency`, :func:`~stalm.domain.verify.check_action`,
+    :func:`~stalm.domain.verify.check_outcome`)."""
     domain = Domain.create(problem)
     spec = problem.spec
     try:

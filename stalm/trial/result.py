@@ -44,14 +44,8 @@ class PhaseTimes:
 
     def phases(self) -> dict[str, float]:
         """The seconds of each phase (not ``total`` or ``cpu``), in the order printed."""
-        return {
-            "setup": self.setup,
-            "predicates": self.predicates,
-            "proposer": self.proposer,
-            "concretize": self.concretize,
-            "tree_search": self.tree_search,
-            "execution": self.execution,
-        }
+        names = ("setup", "predicates", "proposer", "concretize", "tree_search", "execution")
+        return {name: getattr(self, name) for name in names}
 
 
 def phase_times_json(data: object) -> dict[str, float]:

@@ -20,5 +20,4 @@ SCHEMA_PATH = Path(__file__).with_name("result_schema.json")
 
 def result_schema() -> JsonObject:
     """The schema as a mapping, ready for a validator."""
-    schema: JsonObject = json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))
-    return schema
+    return json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))

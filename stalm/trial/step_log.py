@@ -106,18 +106,12 @@ class ProposalRound:
     lessons: RoundLessons | None = None
 
     def to_json(self) -> JsonObject:
-        entry: JsonObject = {
-            "round": self.round,
-            "feedback_facts": self.feedback_facts,
-            "plans": [plan.to_json() for plan in self.plans],
-        }
-        if self.set_aside:
-            entry["set_aside"] = list(self.set_aside)
-        if self.lessons is not None:
-            entry["failures"] = list(self.lessons.failures)
-            entry["facts_learned"] = self.lessons.facts_learned
-            entry["rules_refuted"] = self.lessons.rules_refuted
-        return entry
+        """The fields as JSON, ``set_aside`` only when there is any, the lessons' at the end."""
+        entry = record_json(self, omitted_when_none={"lessons"})
+        if not self.set_aside:
+            del entry["set_aside"]
+        lessons: JsonObject = entry.pop("lessons", {})
+        return entry | lessons
 
 
 @dataclass(frozen=True)
@@ -217,12 +211,8 @@ def _reason(plan: ConcretePlan) -> FailureReason | None:
 
 
 def task_plan_record(plan: ConcretePlan, root_literals: Iterable[GroundLiteral]) -> TaskPlanRecord:
-    """One task plan and what Concretize did with it.
-
-    ``kind`` is the Figure 5 kind (as the experiment counts it, occlusion of the first step
-    judged by ``root_literals``, the prompt's predicates); ``concretize_kind`` is the
-    transition's own; ``feasible_steps`` is how many steps got a feasible κ.
-    """
+    """One task plan and what Concretize did with it; ``root_literals`` (the prompt's
+    predicates) judge whether its first step was occluded (its Figure 5 ``kind``)."""
     return TaskPlanRecord(
         index=plan.index,
         actions=tuple(action_json(action) for action in plan.task_plan.actions),

@@ -2,13 +2,11 @@
 
 A trial that times out says only 'timeout'; its phase times say where the budget went. The
 phase that took the most (:meth:`PhaseTimes.phases`) and the run's settings tree decide the
-advice: predicates on a scene of many objects cost less with ``predicates.relevant_only``
-(occlusions only for the objects a plan must touch), which also shrinks Fast Downward's task;
-the symbolic proposer's own narrowing switches (``proposer.needed_objects_only``,
-``proposer.goal_relations_only``) when they are off; more processes for the predicates when
-they are already relevant-only; fewer replies per query for a model; fewer simulations for the
-tree. When nothing is left to switch, a longer ``--time-budget``. The advice reads only the
-record: it is the same for a result reopened later.
+advice (:func:`_setting_for`): a switch still off that narrows that phase
+(``predicates.relevant_only`` first on a scene of many objects), more processes for the
+predicates, fewer replies for a model or fewer simulations for the tree; when nothing is left
+to switch, a longer ``--time-budget``. The advice reads only the record: it is the same for a
+result reopened later.
 """
 
 from __future__ import annotations
