@@ -24,13 +24,13 @@ from stalm.llm.backends.base import LLMBackend
 from stalm.llm.feedback_prompt import MAX_FAILED_PLANS, FailedPlan, with_feedback
 from stalm.llm.problem_prompt import problem_prompt
 from stalm.llm.prompt import PromptOptions
-from stalm.planners.direct_record import DirectRecord
 from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
 from stalm.proposers.model_backend import use_constraint
 from stalm.search import TaskPlan, concretize
 from stalm.search.concretize import ConcretePlan
 from stalm.settings.tree import RunSettings
+from stalm.trial.details import DirectRecord
 from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import query_seed
 

@@ -37,13 +37,13 @@ from stalm.domain.vocabulary import Vocabulary
 from stalm.json_object import JsonObject
 from stalm.llm.backends.base import LLMBackend
 from stalm.llm.saycan_prompt import saycan_prompt
-from stalm.planners.direct_record import DirectRecord
 from stalm.predicates.literals import GroundLiteral
 from stalm.progress import Progress
 from stalm.proposers.language_model import ask_for_task_plans
 from stalm.proposers.model_backend import use_constraint
 from stalm.search.puct import AUTHORS_UNIFORM_WEIGHT, vote_prior
 from stalm.settings.tree import RunSettings
+from stalm.trial.details import DirectRecord
 from stalm.trial.episode import Episode
 from stalm.trial.online import Decision, OnlinePlanner, Trial
 from stalm.trial.query_seeds import query_seed

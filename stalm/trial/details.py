@@ -30,6 +30,19 @@ class MethodDetails(Protocol):
         ...
 
 
+class DirectRecord:
+    """Base of the record of a method that asks no task-plan proposer (EP-SayCan and
+    Iterative-Replanning prompt their model themselves, PDDLStream plans with Fast Downward):
+    a frozen dataclass whose JSON is its fields."""
+
+    @property
+    def proposer(self) -> None:
+        return None
+
+    def to_json(self) -> JsonObject:
+        return record_json(self)
+
+
 @dataclass(frozen=True)
 class QueryRecord:
     """One language-model query of a trial, for the result: was it answered from the reply

@@ -29,7 +29,6 @@ from stalm.domain.params import Action
 from stalm.domain.samplers import SamplerSettings
 from stalm.domain.vocabulary import Vocabulary
 from stalm.errors import StalmError
-from stalm.planners.direct_record import DirectRecord
 from stalm.planners.pddlstream.adaptive import Adaptive, AdaptiveSettings, IterationRecord
 from stalm.planners.pddlstream.execute import build_action, learn_from
 from stalm.planners.pddlstream.instances import Streams
@@ -39,7 +38,7 @@ from stalm.planners.pddlstream.streams import StreamGeometry
 from stalm.planners.pddlstream.values import PoseValue
 from stalm.progress import Progress, observer_of
 from stalm.settings.tree import RunSettings
-from stalm.trial.details import ReplayCheck, RunDetails
+from stalm.trial.details import DirectRecord, ReplayCheck, RunDetails
 from stalm.trial.replay import replay_plan
 from stalm.trial.result import (
     Counters,
