@@ -310,8 +310,9 @@ def _check_model_rows(arms: Sequence[Arm]) -> None:
             ) from None
 
 
-def _report(paths: list[Path], out_dir: Path, name: str, *, paper: bool) -> None:
-    from stalm.experiments.report import write_report
+def read_results(paths: Sequence[Path]) -> list[dict[str, Any]]:
+    """The records of results files, each warning (a record that cannot be read, a partial
+    last line) printed; a missing file, or none holding a record, is a StalmError."""
     from stalm.experiments.results_log import read_records
 
     records: list[dict[str, Any]] = []
@@ -330,6 +331,13 @@ def _report(paths: list[Path], out_dir: Path, name: str, *, paper: bool) -> None
         records += loaded.records
     if not records:
         raise StalmError(f"no trial records in {', '.join(str(p) for p in paths)}")
+    return records
+
+
+def _report(paths: list[Path], out_dir: Path, name: str, *, paper: bool) -> None:
+    from stalm.experiments.report import write_report
+
+    records = read_results(paths)
     text, files = write_report(records, out_dir, name=name, paper=paper)
     for note in files.left_out:
         console.print(f"[yellow]warning:[/] {shown(note)}", highlight=False, soft_wrap=True)

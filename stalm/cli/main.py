@@ -17,6 +17,7 @@ from rich.console import Console
 
 from stalm.cli import (
     bench_commands,
+    compare_commands,
     experiment_commands,
     export_commands,
     generate_commands,
@@ -53,6 +54,7 @@ for module in (
     predicate_commands,
     solve_commands,
     rerun_commands,
+    compare_commands,
     view_commands,
     export_commands,
     generate_commands,

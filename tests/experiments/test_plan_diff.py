@@ -1,0 +1,88 @@
+"""``stalm same-plans``: two results logs compared trial by trial, on the records of a real
+run (issue 45's 60 trials of stalm-symbolic), changed here on purpose so that each verdict
+must be found."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import pytest
+
+from stalm.experiments.plan_diff import compare_plans
+from tests.cli_runner import run_cli
+
+ROOT = Path(__file__).resolve().parents[2]
+RUN = ROOT / "docs/results/issue45/stalm-symbolic-same-plans.jsonl"
+
+
+@pytest.fixture(scope="module")
+def records() -> list[dict]:
+    return [json.loads(line) for line in RUN.read_text().splitlines()]
+
+
+def _changed(records: list[dict]) -> list[dict]:
+    """The run with one trial per kind of change: a joint moved 1e-3 rad in P1's trial 0, a
+    failure in P2's trial 0, another seed in P3's trial 0, P4's trial 0 left out, a last
+    action dropped in P5's trial 0, and 1e-7 added to a joint in P6's trial 0 (within the
+    tolerance: still the same plan)."""
+    after = copy.deepcopy(records)
+    first = {r["problem"]: r for r in reversed(after) if r["trial"] == 0}
+    first["P1"]["plan"][1]["arm_waypoints"][1][2] += 1e-3
+    first["P2"]["success"] = False
+    first["P3"]["seed"] += 1
+    after.remove(first["P4"])
+    first["P5"]["plan"].pop()
+    first["P6"]["plan"][0]["arm_waypoints"][1][2] += 1e-7
+    return after
+
+
+def test_a_run_compared_with_itself_is_the_same_in_every_trial(records) -> None:
+    comparison = compare_plans(records, records)
+    assert comparison.all_same and len(comparison.trials) == 60
+    assert set(comparison.counts()) == {("stalm-symbolic", f"P{i}") for i in range(1, 7)}
+
+
+def test_each_change_is_found_and_said_where(records) -> None:
+    comparison = compare_plans(records, _changed(records))
+    assert not comparison.all_same
+    odd = {
+        (t.problem, t.trial): (t.verdict, t.why) for t in comparison.trials if t.verdict != "same"
+    }
+    assert set(odd) == {("P1", 0), ("P2", 0), ("P3", 0), ("P4", 0), ("P5", 0)}
+    verdict, why = odd[("P1", 0)]
+    assert verdict == "different" and why.startswith("action 2 (") and "/arm_waypoints[1][2]" in why
+    assert odd[("P2", 0)] == ("different", "success True vs False")
+    assert odd[("P3", 0)][0] == "not comparable" and odd[("P3", 0)][1].startswith("seed ")
+    assert odd[("P4", 0)] == ("only before", "")
+    assert odd[("P5", 0)][0] == "different" and "actions vs" in odd[("P5", 0)][1]
+    counts = comparison.counts()
+    assert counts[("stalm-symbolic", "P6")] == {"same": 10}
+    assert counts[("stalm-symbolic", "P1")] == {"different": 1, "same": 9}
+    # a looser tolerance takes the 1e-3 joint as the same
+    loose = compare_plans(records, _changed(records), tolerance=1e-2)
+    assert ("P1", 0) not in {(t.problem, t.trial) for t in loose.trials if t.verdict != "same"}
+
+
+def test_the_command_exits_1_on_a_difference_and_names_the_trial(
+    records, tmp_path, monkeypatch, capsys
+) -> None:
+    after = tmp_path / "after.jsonl"
+    after.write_text("".join(json.dumps(r) + "\n" for r in _changed(records)))
+    assert run_cli(monkeypatch, "same-plans", str(RUN), str(RUN)) == 0
+    assert "| stalm-symbolic | P1 | 10 | 0 | 0 | 0 | 0 |" in capsys.readouterr().out
+    assert run_cli(monkeypatch, "same-plans", str(RUN), str(after)) == 1
+    shown = capsys.readouterr()
+    assert "stalm-symbolic P4 trial 0: only before" in shown.out
+    assert "| stalm-symbolic | P2 | 9 | 1 | 0 | 0 | 0 |" in shown.out
+    assert "55 of 60 trials executed the same plan" in " ".join(shown.err.split())
+
+
+def test_the_command_refuses_a_missing_file_and_a_negative_tolerance(
+    tmp_path, monkeypatch, capsys
+) -> None:
+    assert run_cli(monkeypatch, "same-plans", str(RUN), str(tmp_path / "none.jsonl")) == 2
+    assert "no results file at" in capsys.readouterr().err
+    assert run_cli(monkeypatch, "same-plans", str(RUN), str(RUN), "--tolerance", "-1") == 2
+    assert "--tolerance must be a number >= 0" in capsys.readouterr().err
