@@ -16,8 +16,8 @@ worker that does not stop is killed).
 experiment's workers would wait on their pipe for ever (each holding its scene and model).
 :func:`end_with_parent` has a process sent a signal when its parent dies, so that it stops
 as a signal stops it (a worker unwinds its trial, removing its folders and Fast Downward).
-Fast Downward's own processes are started to be killed with their starter
-(:func:`run_child`): a process killed outright leaves no search running.
+Fast Downward's and V-HACD's processes are started to be killed with their starter
+(:func:`run_child`, on Linux): a process killed outright leaves no search running.
 
 :func:`end_helper_processes` stops multiprocessing's resource tracker, which Python 3.11 leaves
 to end on its own after stalm has exited: an orphan, which an init that reaps nothing (some
@@ -34,7 +34,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from types import FrameType
 from typing import Any
@@ -153,53 +153,47 @@ def end_with_parent(signum: int, parent: int) -> None:
         os.kill(os.getpid(), signum)
 
 
+LAUNCHER = """
+import ctypes, os, resource, signal, sys
+parent, memory_mb, command = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3:]
+if sys.platform.startswith("linux"):
+    if ctypes.CDLL(None).prctl(1, signal.SIGKILL, 0, 0, 0) == 0 and os.getppid() != parent:
+        os.kill(os.getpid(), signal.SIGKILL)  # the starter ended before this asked
+if memory_mb:
+    resource.setrlimit(resource.RLIMIT_AS, (memory_mb << 20, memory_mb << 20))
+try:
+    os.execvp(command[0], command)
+except OSError as error:
+    sys.stderr.write(f"cannot run {command[0]}: {error.strerror}\\n")
+    os._exit(127)
+"""
+"""What :func:`run_child` runs first, in a Python of its own (isolated, no site packages):
+``LAUNCHER STARTER_PID MEMORY_MB COMMAND...``."""
+
+
 def run_child(
     command: Sequence[str],
     *,
     timeout: float,
-    capture_output: bool = False,
-    prepare: Callable[[], None] | None = None,
+    memory_limit_mb: int | None = None,
     **options: Any,
 ) -> subprocess.CompletedProcess[Any]:
-    """``subprocess.run(command, timeout=..., check=False, ...)`` for a child (Fast Downward,
-    V-HACD) that must not outlive this process: on Linux the kernel kills it when this
-    process ends, also by ``kill -9`` or the out-of-memory killer, where no ``finally`` runs
-    to kill it (an orphaned search would run on unbounded: its time limit is this process's
-    timeout). ``prepare`` runs in the child before it starts (a memory limit).
+    """``subprocess.run(command, timeout=timeout, check=False, **options)`` for a child (Fast
+    Downward, V-HACD) that must not outlive this process: on Linux the kernel kills it when
+    this process ends, also by ``kill -9`` or the out-of-memory killer, where no ``finally``
+    runs to kill it (an orphaned search would run on unbounded: its time limit is this
+    process's timeout). ``memory_limit_mb`` caps the child's address space.
 
-    Asking for that signal needs a ``preexec_fn``, and with one Python runs its at-fork hooks
-    around the fork: a stop signal's handler run inside a hook has its :class:`Stopped`
-    swallowed ("Exception ignored"), and the stop is lost. So the stop signals are held while
-    the child is forked and delivered as soon as it has started, where they unwind as
-    anywhere else (the child is killed and waited for, as by ``subprocess.run``)."""
-    if capture_output:
-        options.update(stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    parent = os.getpid()
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
-
-    def start_child() -> None:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
-        if sys.platform.startswith("linux") and _parent_death_signal(signal.SIGKILL):
-            if os.getppid() != parent:  # ended before the signal was asked for
-                os.kill(os.getpid(), signal.SIGKILL)
-        if prepare is not None:
-            prepare()
-
-    try:
-        process = subprocess.Popen(command, preexec_fn=start_child, **options)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
-    with process:
-        try:
-            stdout, stderr = process.communicate(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-            raise
-        except BaseException:
-            process.kill()
-            raise
-    return subprocess.CompletedProcess(command, process.returncode, stdout, stderr)
+    The child starts as :data:`LAUNCHER`, which asks for the parent-death signal, sets the
+    limit and replaces itself with ``command`` (about 7 ms). A ``preexec_fn`` would do both
+    inside the fork, but with one Python runs its at-fork hooks around the fork, and a stop
+    signal whose handler runs inside a hook has its :class:`Stopped` swallowed ("Exception
+    ignored"): the stop is lost. Nothing can hold the signal back there in a process with
+    other threads (the kernel hands it to one that does not block it). A ``command`` that
+    cannot be run exits 127 with a line on its stderr, as a shell's does."""
+    launcher = [sys.executable, "-I", "-S", "-c", LAUNCHER, str(os.getpid())]
+    memory = str(memory_limit_mb or 0)
+    return subprocess.run([*launcher, memory, *command], timeout=timeout, check=False, **options)
 
 
 def _parent_death_signal(signum: int) -> bool:

@@ -11,7 +11,6 @@ shapes: it has no way to tell that P5's grill must go last, which the tree searc
 from __future__ import annotations
 
 import importlib.util
-import resource
 import subprocess
 import sys
 import time
@@ -111,11 +110,6 @@ def search_task(
     plan_file = work / "sas_plan"
     plan_file.unlink(missing_ok=True)
 
-    def limit_memory() -> None:
-        if memory_limit_mb is not None:
-            size = memory_limit_mb * 1024 * 1024
-            resource.setrlimit(resource.RLIMIT_AS, (size, size))
-
     with (work / "task.sas").open() as task:
         run = stopping.run_child(
             [str(downward_binary()), "--search", search],
@@ -124,7 +118,7 @@ def search_task(
             capture_output=True,
             text=True,
             timeout=time_limit_s,
-            prepare=limit_memory if memory_limit_mb is not None else None,
+            memory_limit_mb=memory_limit_mb,
         )
     if not plan_file.exists():
         return SearchRun(None, run.stdout, run.returncode)
