@@ -9,23 +9,17 @@ refactor or a faster engine that keeps behaviour shows every trial the same (exi
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 import typer
 
-from stalm.cli.display import shown
+from stalm.cli.display import printable, shown
 from stalm.cli.experiment_commands import console, out, read_results
 from stalm.errors import StalmError
 from stalm.geometry.tolerance import CONTINUOUS_TOLERANCE
 
-if TYPE_CHECKING:
-    from stalm.experiments.plan_diff import Verdict
-
 commands = typer.Typer()
 """The top-level commands this module adds; :mod:`stalm.cli.main` composes them."""
-
-VERDICTS: tuple[Verdict, ...] = ("same", "different", "not comparable", "only before", "only after")
-"""The table's columns, in order (see :mod:`stalm.experiments.plan_diff`)."""
 
 
 @commands.command("same-plans")
@@ -37,23 +31,28 @@ def same_plans_command(
         typer.Option(help="Largest difference of a continuous value that is still the same."),
     ] = CONTINUOUS_TOLERANCE,
 ) -> None:
-    """Compare the plans two results files executed, trial by trial (paired by row, problem
-    and trial; the seeds must match): the same success, actions and continuous values within
-    --tolerance. Times are not compared. Exit 1 if any trial differs or has no pair."""
-    from stalm.experiments.plan_diff import compare_plans
+    """Compare what two results files' trials did, trial by trial (paired by row, problem
+    and trial; seeds, problem files and budgets must match): the same termination, actions
+    and continuous values within --tolerance. Times are not compared. Exit 1 if any trial
+    differs or has no pair."""
+    from stalm.experiments.markdown_cells import cell
+    from stalm.experiments.plan_diff import VERDICTS, compare_plans
 
     if not tolerance >= 0:
         raise StalmError(f"--tolerance must be a number >= 0, got {tolerance!r}")
-    comparison = compare_plans(read_results([before]), read_results([after]), tolerance)
+    comparison = compare_plans(
+        read_results([before]), read_results([after]), tolerance, (str(before), str(after))
+    )
     out.print(f"| row | problem | {' | '.join(VERDICTS)} |", highlight=False)
     out.print("|" + " --- |" * (2 + len(VERDICTS)), highlight=False)
     for (arm, problem), counts in comparison.counts().items():
         cells = " | ".join(str(counts.get(verdict, 0)) for verdict in VERDICTS)
-        out.print(f"| {arm} | {problem} | {cells} |", highlight=False, markup=False)
+        out.print(f"| {cell(arm)} | {cell(problem)} | {cells} |", highlight=False, markup=False)
     for trial in comparison.trials:
         if trial.verdict != "same":
             line = f"{trial.arm} {trial.problem} trial {trial.trial}: {trial.verdict}"
-            out.print(line + (f": {trial.why}" if trial.why else ""), highlight=False, markup=False)
+            line += f": {trial.why}" if trial.why else ""
+            out.print(printable(line), highlight=False, markup=False)
     same = sum(trial.verdict == "same" for trial in comparison.trials)
     console.print(
         f"{same} of {len(comparison.trials)} trials executed the same plan in "

@@ -1,25 +1,33 @@
 """Did a change alter what the planners do? Two results logs, trial by trial.
 
 A change meant to keep behaviour (a refactor, a faster engine) is checked by running the same
-experiment before and after it and comparing the plans each seed executed: the same success,
-the same actions, continuous values within a tolerance
-(:data:`~stalm.geometry.tolerance.CONTINUOUS_TOLERANCE`: another machine rounds the last bits
-of IK and trigonometry differently). Times are not compared. Trials are paired by arm, problem
-and trial number; a pair whose seeds or problem hashes differ ran something else and is
-reported as such, not as a changed plan.
+experiment before and after it and comparing what each seed did: the same termination (goal,
+timeout, no_plan, error with the same message), the same actions, continuous values within a
+tolerance (:data:`~stalm.geometry.tolerance.CONTINUOUS_TOLERANCE`: another machine rounds
+the last bits of IK and trigonometry differently). Times are not compared; a trial that timed
+out executed as far as the clock let it, so two runs may differ there without a change.
+
+Trials are paired by row (arm), problem and trial number, after a retried trial's newest
+record has replaced the older ones. A pair whose seeds, problem files or budgets differ ran
+something else: "not comparable", not a changed plan. A log that holds one trial twice under
+different settings (a row run with and without ``--set``) cannot be paired and is refused.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
+from stalm.errors import StalmError
 from stalm.geometry.tolerance import CONTINUOUS_TOLERANCE, first_difference
 
 Verdict = Literal["same", "different", "not comparable", "only before", "only after"]
+VERDICTS: tuple[Verdict, ...] = get_args(Verdict)
 TrialId = tuple[str, str, int]
 """Arm, problem, trial number."""
+SAME_RUN = ("seed", "problem_sha", "problem_hash", "time_budget_s")
+"""What a pair must share to have run the same thing (compared where both records have it)."""
 
 
 @dataclass(frozen=True)
@@ -49,7 +57,7 @@ class PlanComparison:
 
     @property
     def all_same(self) -> bool:
-        """Every trial of both logs has its pair, and every pair executed the same plan."""
+        """Every trial of both logs has its pair, and every pair did the same."""
         return all(trial.verdict == "same" for trial in self.trials)
 
 
@@ -57,10 +65,12 @@ def compare_plans(
     before: Iterable[Mapping[str, Any]],
     after: Iterable[Mapping[str, Any]],
     tolerance: float = CONTINUOUS_TOLERANCE,
+    names: tuple[str, str] = ("before", "after"),
 ) -> PlanComparison:
-    """Pair the trials of ``before`` and ``after`` (records of results logs; a retried trial's
-    last record counts) and compare what each pair executed."""
-    old, new = _by_trial(before), _by_trial(after)
+    """Pair the trials of ``before`` and ``after`` (records of results logs, named ``names``
+    in errors) and compare what each pair did. A record without a whole-number trial or a
+    list as its plan, or a trial held twice under different keys, is a StalmError."""
+    old, new = _by_trial(before, names[0]), _by_trial(after, names[1])
     trials = []
     for key in sorted(old.keys() | new.keys()):
         arm, problem, number = key
@@ -74,20 +84,40 @@ def compare_plans(
     return PlanComparison(tuple(trials))
 
 
-def _by_trial(records: Iterable[Mapping[str, Any]]) -> dict[TrialId, Mapping[str, Any]]:
+def _by_trial(records: Iterable[Mapping[str, Any]], name: str) -> dict[TrialId, Mapping[str, Any]]:
+    newest: dict[object, Mapping[str, Any]] = {}  # a retried trial's newest record replaces
+    for index, record in enumerate(records):
+        newest[record.get("key", ("record", index))] = record
     found: dict[TrialId, Mapping[str, Any]] = {}
-    for record in records:
-        arm = str(record.get("arm") or record.get("planner"))
-        found[(arm, str(record.get("problem")), int(record.get("trial") or 0))] = record
+    for record in newest.values():
+        arm, problem = record.get("arm") or record.get("planner"), record.get("problem")
+        number, plan = record.get("trial", 0), record.get("plan") or []
+        if isinstance(number, bool) or not isinstance(number, int) or not isinstance(plan, list):
+            raise StalmError(
+                f"{name}: the record of {arm} on {problem} needs a whole-number trial and a "
+                f"list as its plan, got trial {number!r} and a plan of type {type(plan).__name__}"
+            )
+        key = (str(arm), str(problem), number)
+        if key in found:
+            raise StalmError(
+                f"{name}: {arm} ran trial {number} of {problem} twice with different settings "
+                "(trial keys): compare the logs of one configuration each"
+            )
+        found[key] = record
     return found
 
 
 def _compare(
     old: Mapping[str, Any], new: Mapping[str, Any], tolerance: float
 ) -> tuple[Verdict, str]:
-    for field in ("seed", "problem_hash"):
-        if old.get(field) != new.get(field):
-            return "not comparable", f"{field} {old.get(field)!r} vs {new.get(field)!r}"
+    for field in SAME_RUN:
+        if field in old and field in new and old[field] != new[field]:
+            return "not comparable", f"{field} {old[field]!r} vs {new[field]!r}"
+    ended = old.get("termination"), new.get("termination")
+    if ended[0] != ended[1]:
+        return "different", f"ended {ended[0]} vs {ended[1]}"
+    if ended[0] == "error" and old.get("error") != new.get("error"):
+        return "different", f"error {old.get('error')!r} vs {new.get('error')!r}"
     if bool(old.get("success")) != bool(new.get("success")):
         return "different", f"success {bool(old.get('success'))} vs {bool(new.get('success'))}"
     before_plan, after_plan = list(old.get("plan") or []), list(new.get("plan") or [])

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from stalm.errors import StalmError
 from stalm.experiments.plan_diff import compare_plans
 from tests.cli_runner import run_cli
 
@@ -102,3 +103,42 @@ def test_a_trial_only_after_and_a_plan_of_unnamed_steps() -> None:
         ("uct", 1, "only after"),
     ]
     assert trials[0].why.startswith("action 1 (?): ")
+
+
+def _trial(**fields) -> dict:
+    return {"key": "k", "arm": "uct", "problem": "X", "trial": 0, "seed": 1, "plan": [], **fields}
+
+
+def test_how_a_trial_ended_and_what_it_ran_are_compared() -> None:
+    """A timeout that became a crash, or a crash with another message, is a difference even
+    with the same executed prefix; another problem file or budget ran something else."""
+
+    def verdict(old: dict, new: dict) -> tuple[str, str]:
+        (trial,) = compare_plans([old], [new]).trials
+        return trial.verdict, trial.why
+
+    timeout = _trial(termination="timeout", problem_sha="a", time_budget_s=10.0)
+    assert verdict(timeout, timeout) == ("same", "")
+    crash = _trial(termination="error", error="ValueError: x")
+    assert verdict(timeout, crash) == ("different", "ended timeout vs error")
+    other_crash = crash | {"error": "KeyError: y"}
+    assert verdict(crash, other_crash) == (
+        "different",
+        "error 'ValueError: x' vs 'KeyError: y'",
+    )
+    assert verdict(timeout, timeout | {"problem_sha": "b"})[0] == "not comparable"
+    assert verdict(timeout, timeout | {"time_budget_s": 20.0}) == (
+        "not comparable",
+        "time_budget_s 10.0 vs 20.0",
+    )
+
+
+def test_a_trial_run_twice_with_other_settings_or_a_malformed_record_is_refused() -> None:
+    twice = [_trial(key="a"), _trial(key="b")]
+    with pytest.raises(StalmError, match=r"old\.jsonl: uct ran trial 0 of X twice"):
+        compare_plans(twice, [_trial()], names=("old.jsonl", "new.jsonl"))
+    retried = [_trial(termination="error"), _trial(termination="goal")]  # one key: the newest
+    assert compare_plans(retried, [_trial(termination="goal")]).all_same
+    for bad in (_trial(trial="1"), _trial(trial=True), _trial(plan={"action": 1})):
+        with pytest.raises(StalmError, match=r"new\.jsonl: the record of uct on X needs"):
+            compare_plans([_trial()], [bad], names=("old.jsonl", "new.jsonl"))
