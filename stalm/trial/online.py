@@ -193,8 +193,8 @@ class OnlinePlanner:
             domain.close()
 
     def _set_up(self, domain: Domain, episode: Episode, seed: int) -> tuple[Trial, Decider | None]:
-        """The trial and the method's decisions; no decisions when the deadline passed while
-        the scene was built (then the method is not started at all)."""
+        """The trial and the method's decisions; no decisions when the deadline passed
+        during set-up (the scene, the predicate engine): the method is then not started."""
         engine = PredicateEngine(
             episode.problem,
             domain.sim,
