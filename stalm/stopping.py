@@ -27,8 +27,10 @@ containers) keeps as a zombie. Like :mod:`stalm.errors`, this module sits below 
 from __future__ import annotations
 
 import ctypes
+import errno
 import gc
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -154,17 +156,26 @@ def end_with_parent(signum: int, parent: int) -> None:
 
 
 LAUNCHER = """
-import ctypes, os, resource, signal, sys
+import os, sys
 parent, memory_mb, command = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3:]
-if sys.platform.startswith("linux"):
-    if ctypes.CDLL(None).prctl(1, signal.SIGKILL, 0, 0, 0) == 0 and os.getppid() != parent:
-        os.kill(os.getpid(), signal.SIGKILL)  # the starter ended before this asked
-if memory_mb:
-    resource.setrlimit(resource.RLIMIT_AS, (memory_mb << 20, memory_mb << 20))
 try:
+    if sys.platform.startswith("linux"):
+        import ctypes
+        if ctypes.CDLL(None).prctl(1, 9, 0, 0, 0) == 0 and os.getppid() != parent:
+            os.kill(os.getpid(), 9)  # SIGKILL: the starter ended before this asked
+    if memory_mb:
+        import resource
+        hard = resource.getrlimit(resource.RLIMIT_AS)[1]
+        size = memory_mb << 20
+        size = size if hard == resource.RLIM_INFINITY else min(size, hard)
+        resource.setrlimit(resource.RLIMIT_AS, (size, size))
+    import signal
+    for name in ("SIGPIPE", "SIGXFSZ"):  # Python ignores them; subprocess restores them
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
     os.execvp(command[0], command)
-except OSError as error:
-    sys.stderr.write(f"cannot run {command[0]}: {error.strerror}\\n")
+except Exception as error:
+    sys.stderr.write(f"cannot run {command[0]}: {error}\\n")
     os._exit(127)
 """
 """What :func:`run_child` runs first, in a Python of its own (isolated, no site packages):
@@ -182,18 +193,51 @@ def run_child(
     Downward, V-HACD) that must not outlive this process: on Linux the kernel kills it when
     this process ends, also by ``kill -9`` or the out-of-memory killer, where no ``finally``
     runs to kill it (an orphaned search would run on unbounded: its time limit is this
-    process's timeout). ``memory_limit_mb`` caps the child's address space.
+    process's timeout). ``memory_limit_mb`` caps the child's address space (at most the hard
+    limit this process already has). A program that is not there or not executable raises
+    FileNotFoundError, as from ``subprocess.run``.
 
     The child starts as :data:`LAUNCHER`, which asks for the parent-death signal, sets the
-    limit and replaces itself with ``command`` (about 7 ms). A ``preexec_fn`` would do both
-    inside the fork, but with one Python runs its at-fork hooks around the fork, and a stop
-    signal whose handler runs inside a hook has its :class:`Stopped` swallowed ("Exception
-    ignored"): the stop is lost. Nothing can hold the signal back there in a process with
-    other threads (the kernel hands it to one that does not block it). A ``command`` that
-    cannot be run exits 127 with a line on its stderr, as a shell's does."""
+    limit and replaces itself with ``command`` (one more Python start-up: 10-20 ms). A
+    ``preexec_fn`` would do both inside the fork, but with one Python runs its at-fork hooks
+    around the fork, and a stop signal whose handler runs inside a hook has its
+    :class:`Stopped` swallowed ("Exception ignored"): the stop is lost. Nothing can hold the
+    signal back there in a process with other threads (the kernel hands it to one that does
+    not block it). The parent-death signal is tied to the calling thread, which waits here
+    until the child has ended."""
+    if memory_limit_mb is not None and (
+        isinstance(memory_limit_mb, bool) or not isinstance(memory_limit_mb, int)
+    ):
+        raise ValueError(f"memory_limit_mb must be a whole number, got {memory_limit_mb!r}")
+    if memory_limit_mb is not None and memory_limit_mb < 0:
+        raise ValueError(f"memory_limit_mb must be >= 0, got {memory_limit_mb}")
+    _check_runnable(command[0], options.get("cwd"), options.get("env"))
     launcher = [sys.executable, "-I", "-S", "-c", LAUNCHER, str(os.getpid())]
     memory = str(memory_limit_mb or 0)
-    return subprocess.run([*launcher, memory, *command], timeout=timeout, check=False, **options)
+    try:
+        done = subprocess.run(
+            [*launcher, memory, *command], timeout=timeout, check=False, **options
+        )
+    except subprocess.TimeoutExpired as expired:  # named by the command, not the launcher
+        raise subprocess.TimeoutExpired(
+            list(command), timeout, output=expired.output, stderr=expired.stderr
+        ) from None
+    done.args = list(command)
+    return done
+
+
+def _check_runnable(program: str, cwd: str | os.PathLike[str] | None, env: Any) -> None:
+    """FileNotFoundError unless ``program`` (a path, relative to ``cwd``, or a name looked up
+    on the ``PATH`` of ``env``) is an executable file."""
+    found: bool
+    if os.path.dirname(program):
+        path = os.path.join(cwd, program) if cwd is not None else program
+        found = os.path.isfile(path) and os.access(path, os.X_OK)
+    else:
+        search = (os.environ if env is None else env).get("PATH")
+        found = shutil.which(program, path=search) is not None
+    if not found:
+        raise FileNotFoundError(errno.ENOENT, "no executable program", program)
 
 
 def _parent_death_signal(signum: int) -> bool:

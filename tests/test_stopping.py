@@ -182,13 +182,44 @@ def test_run_child_returns_what_subprocess_run_would() -> None:
     assert (done.returncode, done.stdout, done.stderr) == (3, f"{(512 << 20,) * 2}\n", "")
     unlimited = stopping.run_child([sys.executable, "-c", limit], timeout=TIMEOUT_S)
     assert unlimited.returncode == 3
-    missing = stopping.run_child(
-        ["/no/such/program"], timeout=TIMEOUT_S, capture_output=True, text=True
+    assert done.args == [sys.executable, "-c", limit]  # the command, not its launcher
+    with pytest.raises(FileNotFoundError, match="/no/such/program"):
+        stopping.run_child(["/no/such/program"], timeout=TIMEOUT_S)
+    with pytest.raises(FileNotFoundError, match="no-such-program-on-the-path"):
+        stopping.run_child(["no-such-program-on-the-path"], timeout=TIMEOUT_S)
+    with pytest.raises(ValueError, match="memory_limit_mb must be >= 0"):
+        stopping.run_child([sys.executable, "-c", ""], timeout=TIMEOUT_S, memory_limit_mb=-1)
+    sleep = [sys.executable, "-c", "import time; time.sleep(60)"]
+    with pytest.raises(subprocess.TimeoutExpired) as expired:
+        stopping.run_child(sleep, timeout=0.5)
+    assert expired.value.cmd == sleep
+
+
+def test_the_launched_program_gets_the_signals_and_limits_subprocess_would_give_it() -> None:
+    """SIGPIPE and SIGXFSZ at their defaults (Python ignores them; subprocess restores them),
+    as a program started by subprocess.run has them, and a memory limit lowered to a hard
+    limit this process already has rather than refused."""
+    from stalm import stopping
+
+    ignored = "print(open('/proc/self/status').read().split('SigIgn:')[1].split()[0])"
+    direct = subprocess.run(
+        [sys.executable, "-c", ignored], capture_output=True, text=True, check=True
     )
-    assert missing.returncode == 127
-    assert missing.stderr == "cannot run /no/such/program: No such file or directory\n"
-    with pytest.raises(subprocess.TimeoutExpired):
-        stopping.run_child([sys.executable, "-c", "import time; time.sleep(60)"], timeout=0.5)
+    launched = stopping.run_child(
+        [sys.executable, "-c", ignored], timeout=TIMEOUT_S, capture_output=True, text=True
+    )
+    assert launched.stdout == direct.stdout
+    limited = "import resource; print(resource.getrlimit(resource.RLIMIT_AS)[0] >> 20)"
+    starter = (
+        "import resource, sys; from stalm import stopping; "
+        "resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30)); "
+        f"print(stopping.run_child([sys.executable, '-c', {limited!r}], timeout=60, "
+        "memory_limit_mb=8192, capture_output=True, text=True).stdout, end='')"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", starter], capture_output=True, text=True, env=_env(), check=False
+    )
+    assert (done.returncode, done.stdout) == (0, "4096\n"), done.stderr
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux's parent-death signal")

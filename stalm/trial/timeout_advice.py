@@ -5,8 +5,8 @@ phase that took the most (:meth:`PhaseTimes.phases`) and the run's settings tree
 advice (:func:`_setting_for`): a switch still off that narrows that phase
 (``predicates.relevant_only`` first for the predicates, and for Fast Downward on a scene of
 many objects), more processes for the predicates, fewer replies for a model or fewer
-simulations for the tree; when nothing is left to switch, a longer ``--time-budget``. The advice reads only the record: it is the same for a
-result reopened later.
+simulations for the tree; when nothing is left to switch, a longer ``--time-budget``. The
+advice reads only the record: it is the same for a result reopened later.
 """
 
 from __future__ import annotations
