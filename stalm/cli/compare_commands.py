@@ -34,7 +34,7 @@ def same_plans_command(
     """Compare what two results files' trials did, trial by trial (paired by row, problem
     and trial; seeds, problem files and budgets must match): the same termination, actions
     and continuous values within --tolerance. Times are not compared. Exit 1 if any trial
-    differs or has no pair."""
+    differs, is not comparable or has no pair."""
     from stalm.experiments.markdown_cells import cell
     from stalm.experiments.plan_diff import VERDICTS, compare_plans
 
@@ -43,21 +43,23 @@ def same_plans_command(
     comparison = compare_plans(
         read_results([before]), read_results([after]), tolerance, (str(before), str(after))
     )
-    out.print(f"| row | problem | {' | '.join(VERDICTS)} |", highlight=False)
-    out.print("|" + " --- |" * (2 + len(VERDICTS)), highlight=False)
+    out.print(f"| row | problem | {' | '.join(VERDICTS)} |", highlight=False, soft_wrap=True)
+    out.print("|" + " --- |" * (2 + len(VERDICTS)), highlight=False, soft_wrap=True)
     for (arm, problem), counts in comparison.counts().items():
         cells = " | ".join(str(counts.get(verdict, 0)) for verdict in VERDICTS)
-        out.print(f"| {cell(arm)} | {cell(problem)} | {cells} |", highlight=False, markup=False)
+        row = f"| {cell(printable(arm))} | {cell(printable(problem))} | {cells} |"
+        out.print(row, highlight=False, markup=False, soft_wrap=True)
     for trial in comparison.trials:
         if trial.verdict != "same":
             line = f"{trial.arm} {trial.problem} trial {trial.trial}: {trial.verdict}"
             line += f": {trial.why}" if trial.why else ""
-            out.print(printable(line), highlight=False, markup=False)
+            out.print(printable(line), highlight=False, markup=False, soft_wrap=True)
     same = sum(trial.verdict == "same" for trial in comparison.trials)
     console.print(
         f"{same} of {len(comparison.trials)} trials executed the same plan in "
         f"{shown(before)} and {shown(after)}",
         highlight=False,
+        soft_wrap=True,
     )
     if not comparison.all_same:
         raise typer.Exit(1)

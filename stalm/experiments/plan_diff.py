@@ -2,19 +2,22 @@
 
 A change meant to keep behaviour (a refactor, a faster engine) is checked by running the same
 experiment before and after it and comparing what each seed did: the same termination (goal,
-timeout, no_plan, error with the same message), the same actions, continuous values within a
-tolerance (:data:`~stalm.geometry.tolerance.CONTINUOUS_TOLERANCE`: another machine rounds
-the last bits of IK and trigonometry differently). Times are not compared; a trial that timed
-out executed as far as the clock let it, so two runs may differ there without a change.
+horizon, timeout, ..., or an error with the same message, process ids and temporary folders
+aside), the same actions, and continuous values within a tolerance
+(:data:`~stalm.geometry.tolerance.CONTINUOUS_TOLERANCE`: another machine rounds the last bits
+of IK and trigonometry differently). Times are not compared; a trial that timed out executed
+as far as the clock let it, so two runs may differ there without a change.
 
 Trials are paired by row (arm), problem and trial number, after a retried trial's newest
-record has replaced the older ones. A pair whose seeds, problem files or budgets differ ran
-something else: "not comparable", not a changed plan. A log that holds one trial twice under
-different settings (a row run with and without ``--set``) cannot be paired and is refused.
+record has replaced the older ones. A pair whose seeds, problem files or budgets differ (where
+both records say) ran something else: "not comparable", not a changed plan. A log that holds
+one trial twice under different settings (a row run with and without ``--set``) cannot be
+paired and is refused.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal, get_args
@@ -28,6 +31,8 @@ TrialId = tuple[str, str, int]
 """Arm, problem, trial number."""
 SAME_RUN = ("seed", "problem_sha", "problem_hash", "time_budget_s")
 """What a pair must share to have run the same thing (compared where both records have it)."""
+RUN_SPECIFIC = re.compile(r"\b(pid) \d+|(stalm-[a-z]+-)\d+-\w+")
+"""What names one run in an error message: a process id, a temporary folder of stalm's."""
 
 
 @dataclass(frozen=True)
@@ -91,7 +96,8 @@ def _by_trial(records: Iterable[Mapping[str, Any]], name: str) -> dict[TrialId, 
     found: dict[TrialId, Mapping[str, Any]] = {}
     for record in newest.values():
         arm, problem = record.get("arm") or record.get("planner"), record.get("problem")
-        number, plan = record.get("trial", 0), record.get("plan") or []
+        number, plan = record.get("trial", 0), record.get("plan")
+        plan = [] if plan is None else plan
         if isinstance(number, bool) or not isinstance(number, int) or not isinstance(plan, list):
             raise StalmError(
                 f"{name}: the record of {arm} on {problem} needs a whole-number trial and a "
@@ -116,7 +122,7 @@ def _compare(
     ended = old.get("termination"), new.get("termination")
     if ended[0] != ended[1]:
         return "different", f"ended {ended[0]} vs {ended[1]}"
-    if ended[0] == "error" and old.get("error") != new.get("error"):
+    if ended[0] == "error" and _run_free(old.get("error")) != _run_free(new.get("error")):
         return "different", f"error {old.get('error')!r} vs {new.get('error')!r}"
     if bool(old.get("success")) != bool(new.get("success")):
         return "different", f"success {bool(old.get('success'))} vs {bool(new.get('success'))}"
@@ -128,6 +134,11 @@ def _compare(
     if len(before_plan) != len(after_plan):
         return "different", f"{len(before_plan)} actions vs {len(after_plan)}"
     return "same", ""
+
+
+def _run_free(message: object) -> str:
+    """An error message with what names its run (:data:`RUN_SPECIFIC`) left out."""
+    return RUN_SPECIFIC.sub(lambda found: (found.group(1) or found.group(2)) + " #", str(message))
 
 
 def _name(step: Any) -> str:

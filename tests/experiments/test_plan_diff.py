@@ -126,7 +126,17 @@ def test_how_a_trial_ended_and_what_it_ran_are_compared() -> None:
         "different",
         "error 'ValueError: x' vs 'KeyError: y'",
     )
+    forked = _trial(termination="error", error="a forked predicate worker (pid 4121) ended")
+    assert verdict(forked, forked | {"error": "a forked predicate worker (pid 977) ended"})[0] == (
+        "same"
+    )
+    in_folder = _trial(termination="error", error="OSError: /tmp/stalm-fd-4121-ab_c9/x")
+    assert verdict(in_folder, in_folder | {"error": "OSError: /tmp/stalm-fd-977-zz1/x"})[0] == (
+        "same"
+    )
     assert verdict(timeout, timeout | {"problem_sha": "b"})[0] == "not comparable"
+    unsaid = {k: v for k, v in timeout.items() if k != "time_budget_s"}
+    assert verdict(timeout, unsaid) == ("same", "")  # a field only one record has: not compared
     assert verdict(timeout, timeout | {"time_budget_s": 20.0}) == (
         "not comparable",
         "time_budget_s 10.0 vs 20.0",
@@ -142,3 +152,19 @@ def test_a_trial_run_twice_with_other_settings_or_a_malformed_record_is_refused(
     for bad in (_trial(trial="1"), _trial(trial=True), _trial(plan={"action": 1})):
         with pytest.raises(StalmError, match=r"new\.jsonl: the record of uct on X needs"):
             compare_plans([_trial()], [bad], names=("old.jsonl", "new.jsonl"))
+
+
+def test_the_command_escapes_what_a_log_names_and_names_a_refused_log(
+    tmp_path, monkeypatch, capsys
+) -> None:
+    odd = _trial(arm="a|b\x1b[31m", termination="goal")
+    before, after = tmp_path / "before.jsonl", tmp_path / "after.jsonl"
+    before.write_text(json.dumps(odd) + "\n")
+    after.write_text(json.dumps(odd | {"termination": "timeout"}) + "\n")
+    assert run_cli(monkeypatch, "same-plans", str(before), str(after)) == 1
+    shown = capsys.readouterr().out
+    assert "| a\\|b\\\\x1b[31m | X | 0 | 1 | 0 | 0 | 0 |" in shown and "\x1b" not in shown
+    twice = [_trial(key="a", termination="goal"), _trial(key="b", termination="goal")]
+    before.write_text("".join(json.dumps(r) + "\n" for r in twice))
+    assert run_cli(monkeypatch, "same-plans", str(before), str(after)) == 2
+    assert "ran trial 0 of X twice" in " ".join(capsys.readouterr().err.split())
