@@ -59,10 +59,40 @@ class Stopped(BaseException):
         return 128 + self.signum
 
 
-def _stop(signum: int, frame: FrameType | None) -> None:
-    for number in STOP_SIGNALS:
-        signal.signal(number, signal.SIG_IGN)
-    raise Stopped(signum)
+class StopHandler:
+    """The handler of the stop signals: the first one ignores the next ones (so that a second
+    TERM or Ctrl-C cannot cut the clean-up short) and raises :class:`Stopped` (:meth:`stop`).
+    It remembers what it received, for :func:`stops_kept`."""
+
+    def __init__(self) -> None:
+        self.received: list[int] = []
+
+    def __call__(self, signum: int, frame: FrameType | None) -> None:
+        self.received.append(signum)
+        for number in STOP_SIGNALS:
+            signal.signal(number, signal.SIG_IGN)
+        self.stop(signum)
+
+    def stop(self, signum: int) -> None:
+        """What the first stop signal does once the next ones are ignored."""
+        raise Stopped(signum)
+
+
+@contextmanager
+def stops_kept() -> Iterator[None]:
+    """Raise at the block's end a stop whose :class:`Stopped` was swallowed inside it.
+
+    ``os.fork`` runs Python's at-fork hooks (``logging`` registers some), and a stop signal
+    whose handler runs inside a hook has its exception swallowed ("Exception ignored"); the
+    handler has already made every stop signal ignored, so the stop would be lost for good.
+    Holding the signals back around the fork does not cover a process with other threads
+    (the kernel hands the signal to one that does not block it, and the handler still runs
+    in the main thread). A stop raised inside the block as usual propagates as usual."""
+    handler = signal.getsignal(signal.SIGTERM)
+    seen = len(handler.received) if isinstance(handler, StopHandler) else 0
+    yield
+    if isinstance(handler, StopHandler) and len(handler.received) > seen:
+        handler.stop(handler.received[seen])
 
 
 @contextmanager
@@ -88,9 +118,10 @@ def install() -> None:
     A signal the process was started ignoring stays ignored: ``nohup`` ignores HUP and a
     shell's background job INT, so that closing the terminal or a Ctrl-C there does not end it
     (Python itself leaves an ignored SIGINT alone for the same reason)."""
+    handler = StopHandler()
     for number in STOP_SIGNALS:
         if signal.getsignal(number) is not signal.SIG_IGN:
-            signal.signal(number, _stop)
+            signal.signal(number, handler)
 
 
 def stop_message(stop: BaseException) -> str:

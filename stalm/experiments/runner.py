@@ -17,7 +17,6 @@ import signal
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
-from types import FrameType
 from typing import Any
 
 from stalm import stopping
@@ -145,30 +144,31 @@ def _run_in_processes(todo: Sequence[TrialSpec], workers: int, keep: OnRecord) -
 
 
 _in_trial = False
-"""Whether this worker process is running a trial (see :func:`_stop_worker`)."""
+"""Whether this worker process is running a trial (see :class:`WorkerStopHandler`)."""
 
 
-def _start_worker(parent: int) -> None:
-    """Stop on TERM, INT and HUP as the CLI does (:func:`_stop_worker`), and on TERM when
-    ``parent`` (the process that runs the experiment) ends, even by ``kill -9``: nothing else
-    would end a worker waiting for its next trial, nor one in a trial nobody waits for (a
-    KILL where TERM is ignored: it must not outlive its parent)."""
-    for number in stopping.STOP_SIGNALS:
-        if signal.getsignal(number) is not signal.SIG_IGN:  # as stopping.install
-            signal.signal(number, _stop_worker)
-    handled = signal.getsignal(signal.SIGTERM) is _stop_worker
-    stopping.end_with_parent(signal.SIGTERM if handled else signal.SIGKILL, parent)
-
-
-def _stop_worker(signum: int, frame: FrameType | None) -> None:
+class WorkerStopHandler(stopping.StopHandler):
     """A worker stops on TERM, INT or HUP as the CLI does: inside a trial by unwinding it
     (:class:`~stalm.stopping.Stopped`, which cleans up its children and folders), while idle
     by ending at once (SystemExit, which multiprocessing ends a process with quietly)."""
+
+    def stop(self, signum: int) -> None:
+        if _in_trial:
+            raise stopping.Stopped(signum)
+        raise SystemExit(128 + signum)
+
+
+def _start_worker(parent: int) -> None:
+    """Stop on TERM, INT and HUP as the CLI does (:class:`WorkerStopHandler`), and on TERM
+    when ``parent`` (the process that runs the experiment) ends, even by ``kill -9``: nothing
+    else would end a worker waiting for its next trial, nor one in a trial nobody waits for
+    (a KILL where TERM is ignored: it must not outlive its parent)."""
+    handler = WorkerStopHandler()
     for number in stopping.STOP_SIGNALS:
-        signal.signal(number, signal.SIG_IGN)
-    if _in_trial:
-        raise stopping.Stopped(signum)
-    raise SystemExit(128 + signum)
+        if signal.getsignal(number) is not signal.SIG_IGN:  # as stopping.install
+            signal.signal(number, handler)
+    handled = signal.getsignal(signal.SIGTERM) is handler
+    stopping.end_with_parent(signal.SIGTERM if handled else signal.SIGKILL, parent)
 
 
 def run_trial_in_worker(spec: TrialSpec) -> dict[str, Any]:

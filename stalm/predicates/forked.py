@@ -112,20 +112,27 @@ def _fork_child(
 ) -> tuple[int, int]:
     """Fork a child that computes what it is dealt: its pid and the read end of its answer's
     pipe. The stop signals are held while it forks, so that none reaches the child before it
-    has made them end it outright (:func:`_run_child`)."""
+    has made them end it outright (:func:`_run_child`); a stop that reaches this process
+    meanwhile is raised once the child is forked (or was not), and the child is waited for."""
     parent = os.getpid()
     read_end, write_end = os.pipe()
-    mask = signal.pthread_sigmask(signal.SIG_BLOCK, stopping.STOP_SIGNALS)
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, [])  # this thread's, unchanged
+    pid = 0
     try:
-        pid = os.fork()
-        if pid == 0:
-            _run_child(function, items, dealer, (read_end, write_end), parent, mask)
-    except OSError:
+        signal.pthread_sigmask(signal.SIG_BLOCK, stopping.STOP_SIGNALS)
+        with stopping.stops_kept():  # a stop the at-fork hooks swallowed: raised after them
+            pid = os.fork()
+            if pid == 0:
+                _run_child(function, items, dealer, (read_end, write_end), parent, mask)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # a stop held meanwhile arrives now
+    except BaseException:  # no fork, or a stop: no child is left unwaited for
         os.close(read_end)
         os.close(write_end)
+        if pid > 0:
+            dealer.stop()
+            os.waitpid(pid, 0)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         raise
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # the parent's (the child never returns)
     os.close(write_end)
     return pid, read_end
 

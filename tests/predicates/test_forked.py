@@ -258,3 +258,40 @@ def test_a_stop_signal_at_the_fork_never_runs_the_callers_code_in_the_child() ->
     assert len(lines) == 1, done.stdout + done.stderr
     assert lines[0].startswith("parent StalmError a forked predicate worker"), lines
     assert "killed by SIGTERM" in lines[0]
+
+
+STOP_IN_AN_AT_FORK_HOOK = """
+import logging  # as in stalm: it registers at-fork hooks, Python code run around a fork
+import os, signal, threading, time
+from stalm.predicates.forked import forked_map
+from stalm.stopping import Stopped, stop_message, stopping_on_signals
+
+threading.Thread(target=time.sleep, args=(60,), daemon=True).start()  # as numpy's, a model's
+def stop_now():  # the forking thread holds TERM back: another thread takes it, in its time
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(0.2)
+os.register_at_fork(before=stop_now)
+with stopping_on_signals():
+    try:
+        forked_map(abs, list(range(-8, 0)), 2)
+        print("finished: the stop was lost", flush=True)
+    except Stopped as stop:
+        print(stop_message(stop), flush=True)
+"""
+
+
+def test_a_stop_whose_handler_runs_in_an_at_fork_hook_is_not_lost() -> None:
+    """os.fork runs Python's at-fork hooks; a TERM whose handler runs in one (held back in
+    the forking thread, it reaches another thread) has its Stopped swallowed there, and the
+    handler has made every later stop signal ignored. The stop is raised once the child is
+    forked, and the child is waited for: the run stops as it would anywhere else."""
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    done = subprocess.run(
+        [sys.executable, "-c", STOP_IN_AN_AT_FORK_HOOK],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=False,
+    )
+    assert done.stdout == "stopped by SIGTERM\n", done.stdout + done.stderr
