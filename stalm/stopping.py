@@ -88,10 +88,11 @@ def stops_kept() -> Iterator[None]:
     Holding the signals back around the fork does not cover a process with other threads
     (the kernel hands the signal to one that does not block it, and the handler still runs
     in the main thread). A stop raised inside the block as usual propagates as usual."""
-    handler = signal.getsignal(signal.SIGTERM)
-    seen = len(handler.received) if isinstance(handler, StopHandler) else 0
+    handlers = [signal.getsignal(number) for number in STOP_SIGNALS]  # TERM may be ignored
+    handler = next((h for h in handlers if isinstance(h, StopHandler)), None)
+    seen = 0 if handler is None else len(handler.received)
     yield
-    if isinstance(handler, StopHandler) and len(handler.received) > seen:
+    if handler is not None and len(handler.received) > seen:
         handler.stop(handler.received[seen])
 
 

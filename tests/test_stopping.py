@@ -262,3 +262,25 @@ def test_a_child_is_started_without_running_this_processs_at_fork_hooks() -> Non
         check=False,
     )
     assert (done.returncode, done.stdout) == (0, "[]\n"), done.stderr
+
+
+def test_a_stop_swallowed_inside_stops_kept_is_raised_at_its_end() -> None:
+    """As an at-fork hook swallows it: the handler's Stopped caught inside the block. It is
+    raised again, with its signal, at the block's end; the handler is found whichever stop
+    signal the process was started ignoring (here TERM, as a scheduler might)."""
+    from stalm import stopping
+
+    previous = signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    try:
+        with stopping.stopping_on_signals():
+            assert signal.getsignal(signal.SIGTERM) is signal.SIG_IGN
+            with pytest.raises(stopping.Stopped) as stop, stopping.stops_kept():
+                handler = signal.getsignal(signal.SIGHUP)
+                assert isinstance(handler, stopping.StopHandler)
+                with contextlib.suppress(stopping.Stopped):  # swallowed
+                    handler(signal.SIGHUP, None)
+            assert stop.value.signum == signal.SIGHUP
+            with stopping.stops_kept():  # handled: every stop signal ignored, nothing more
+                pass
+    finally:
+        signal.signal(signal.SIGTERM, previous)
