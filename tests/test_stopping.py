@@ -270,7 +270,10 @@ def test_a_stop_swallowed_inside_stops_kept_is_raised_at_its_end() -> None:
     signal the process was started ignoring (here TERM, as a scheduler might)."""
     from stalm import stopping
 
-    previous = signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    # as the process was started: TERM ignored, the others not (whatever this test runner's are)
+    started = {signal.SIGTERM: signal.SIG_IGN, signal.SIGINT: signal.SIG_DFL}
+    started[signal.SIGHUP] = signal.SIG_DFL
+    previous = {number: signal.signal(number, how) for number, how in started.items()}
     try:
         with stopping.stopping_on_signals():
             assert signal.getsignal(signal.SIGTERM) is signal.SIG_IGN
@@ -283,4 +286,5 @@ def test_a_stop_swallowed_inside_stops_kept_is_raised_at_its_end() -> None:
             with stopping.stops_kept():  # handled: every stop signal ignored, nothing more
                 pass
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for number, handler in previous.items():
+            signal.signal(number, handler)
