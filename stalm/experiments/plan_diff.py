@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any, Literal, get_args
 
 from stalm.errors import StalmError
+from stalm.experiments.report import latest_records
 from stalm.geometry.tolerance import CONTINUOUS_TOLERANCE, first_difference
 
 Verdict = Literal["same", "different", "not comparable", "only before", "only after"]
@@ -67,8 +68,8 @@ class PlanComparison:
 
 
 def compare_plans(
-    before: Iterable[Mapping[str, Any]],
-    after: Iterable[Mapping[str, Any]],
+    before: Iterable[dict[str, Any]],
+    after: Iterable[dict[str, Any]],
     tolerance: float = CONTINUOUS_TOLERANCE,
     names: tuple[str, str] = ("before", "after"),
 ) -> PlanComparison:
@@ -89,12 +90,9 @@ def compare_plans(
     return PlanComparison(tuple(trials))
 
 
-def _by_trial(records: Iterable[Mapping[str, Any]], name: str) -> dict[TrialId, Mapping[str, Any]]:
-    newest: dict[object, Mapping[str, Any]] = {}  # a retried trial's newest record replaces
-    for index, record in enumerate(records):
-        newest[record.get("key", ("record", index))] = record
+def _by_trial(records: Iterable[dict[str, Any]], name: str) -> dict[TrialId, Mapping[str, Any]]:
     found: dict[TrialId, Mapping[str, Any]] = {}
-    for record in newest.values():
+    for record in latest_records(records):  # a retried trial's newest record
         arm, problem = record.get("arm") or record.get("planner"), record.get("problem")
         number, plan = record.get("trial", 0), record.get("plan")
         plan = [] if plan is None else plan
