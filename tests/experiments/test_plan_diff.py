@@ -92,16 +92,10 @@ def test_the_command_refuses_a_missing_file_and_a_negative_tolerance(
 def test_a_trial_only_after_and_a_plan_of_unnamed_steps() -> None:
     """Records as an older stalm or another tool may write them: no arm (the planner names the
     row), steps without a readable action."""
-    before = [{"key": "a", "planner": "uct", "problem": "X", "trial": 0, "seed": 1, "plan": [{}]}]
+    first = {"key": "a", "planner": "uct", "problem": "X", "trial": 0, "seed": 1}
+    before = [first | {"plan": [{}]}]
     after = [
-        {
-            "key": "a",
-            "planner": "uct",
-            "problem": "X",
-            "trial": 0,
-            "seed": 1,
-            "plan": [{"action": 1}],
-        },
+        first | {"plan": [{"action": 1.0}]},
         {"key": "b", "planner": "uct", "problem": "X", "trial": 1, "seed": 2, "plan": []},
     ]
     trials = compare_plans(before, after).trials
