@@ -241,19 +241,24 @@ with stopping_on_signals():
 """
 
 
-def test_a_stop_signal_at_the_fork_never_runs_the_callers_code_in_the_child() -> None:
-    """A forked child given the parent's handlers would unwind through the parent's code
-    with its :class:`~stalm.stopping.Stopped`: the command's "stopped by SIGTERM" printed
-    twice, and the parent's temporary folders removed under it."""
+def _run_script(script: str) -> subprocess.CompletedProcess[str]:
+    """``script`` run by a Python of its own, importing this checkout's stalm."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    done = subprocess.run(
-        [sys.executable, "-c", SIGNAL_AT_FORK],
+    return subprocess.run(
+        [sys.executable, "-c", script],
         capture_output=True,
         text=True,
         env=env,
         timeout=120,
         check=False,
     )
+
+
+def test_a_stop_signal_at_the_fork_never_runs_the_callers_code_in_the_child() -> None:
+    """A forked child given the parent's handlers would unwind through the parent's code
+    with its :class:`~stalm.stopping.Stopped`: the command's "stopped by SIGTERM" printed
+    twice, and the parent's temporary folders removed under it."""
+    done = _run_script(SIGNAL_AT_FORK)
     lines = done.stdout.splitlines()
     assert len(lines) == 1, done.stdout + done.stderr
     assert lines[0].startswith("parent StalmError a forked predicate worker"), lines
@@ -285,13 +290,5 @@ def test_a_stop_whose_handler_runs_in_an_at_fork_hook_is_not_lost() -> None:
     the forking thread, it reaches another thread) has its Stopped swallowed there, and the
     handler has made every later stop signal ignored. The stop is raised once the child is
     forked, and the child is waited for: the run stops as it would anywhere else."""
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
-    done = subprocess.run(
-        [sys.executable, "-c", STOP_IN_AN_AT_FORK_HOOK],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=120,
-        check=False,
-    )
+    done = _run_script(STOP_IN_AN_AT_FORK_HOOK)
     assert done.stdout == "stopped by SIGTERM\n", done.stdout + done.stderr
